@@ -1,0 +1,1 @@
+"""Body specifications (morphology as data) and gaits. Imports only neuronav, numpy and scipy."""

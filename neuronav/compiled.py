@@ -1,0 +1,336 @@
+"""CompiledCircuit: a circuit built into block matrices and index slices, stepped for a batch.
+
+All N agents advance together: every population's rates live in one state array of shape
+(N, total_cells); each population reads the contiguous span of that array its sources occupy
+through one matrix product. Populations update in a topological order of the undelayed
+connections (ties broken by name, so the order — and the numbers — never depend on the order the
+populations were declared in). A delayed connection reads its source as it was at the start of the
+step.
+
+Noise comes from one seeded :class:`numpy.random.Generator` per agent, drawn ahead in blocks, so
+agent i of a batch sees exactly the numbers a single run with that agent's seed sees.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Sequence
+
+import networkx as nx
+import numpy as np
+import scipy.sparse
+
+from neuronav.activations import ACTIVATIONS
+from neuronav.encoders import get_encoder
+from neuronav.errors import CircuitError, PortError
+
+# Above this many cells a circuit's weights are stored sparse when most of them are zero.
+SPARSE_MIN_CELLS = 2000
+SPARSE_MAX_DENSITY = 0.1
+# Bytes of pre-drawn noise held per circuit at most.
+NOISE_BUFFER_BYTES = 1 << 25
+
+
+@dataclass
+class _Update:
+    """Everything one non-input population needs for its update, resolved at compile time."""
+
+    name: str
+    kind: str
+    cells: slice
+    span_now: slice | None
+    weights_now: Any  # (span, size) dense ndarray or sparse matrix, or None
+    span_prev: slice | None
+    weights_prev: Any
+    bias: float
+    activation: Callable[..., np.ndarray]
+    activation_params: dict
+    noise_columns: slice | None
+    clip: tuple[float, float] | None
+    leak_fraction: float  # leaky: dt / tau
+    gain: float
+    leak: float
+    drive_clip: tuple[float, float] | None
+    memory_clip: tuple[float, float] | None
+
+
+class CompiledCircuit:
+    """A circuit ready to run: ``step(inputs) -> outputs`` for a batch of agents.
+
+    Parameters
+    ----------
+    circuit : Circuit
+    batch : int
+        Number of agents N stepped together.
+    seed : int or None
+        Agent i's noise generator is seeded with ``seed + i`` (unless ``seeds`` is given).
+    seeds : sequence of int, optional
+        One seed per agent; overrides ``seed``.
+    dtype : numpy dtype
+        float64 (default) or float32.
+    dt_s : float, optional
+        Step length in seconds; required when the circuit has ``leaky`` populations.
+    sparse : bool, optional
+        Store weights as scipy.sparse matrices. Default: only for large, mostly empty circuits.
+    """
+
+    def __init__(
+        self, circuit, batch: int = 1, seed: int | None = 0, seeds: Sequence[int] | None = None,
+        dtype: Any = np.float64, dt_s: float | None = None, sparse: bool | None = None,
+    ) -> None:
+        if not isinstance(batch, (int, np.integer)) or isinstance(batch, bool) or batch < 1:
+            raise CircuitError(f"batch must be a positive int, got {batch!r}")
+        dtype = np.dtype(dtype)
+        if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+            raise CircuitError(f"dtype must be float64 or float32, got {dtype}")
+        if seeds is not None:
+            seeds = [int(s) for s in seeds]
+            if len(seeds) != batch:
+                raise CircuitError(f"{len(seeds)} seeds given for a batch of {batch}")
+        if circuit.graph.number_of_nodes() == 0:
+            raise CircuitError(f"circuit {circuit.name!r} has no populations")
+        self.circuit = circuit
+        self.batch = int(batch)
+        self.dtype = dtype
+        self.dt_s = dt_s
+        self.sensors = circuit.sensors
+        self.motors = circuit.motors
+        self._sensor_shapes = {s.name: (self.batch, *s.shape) for s in self.sensors}
+
+        self.order = _update_order(circuit)
+        position = {name: i for i, name in enumerate(self.order)}
+        self.cells: dict[str, slice] = {}
+        start = 0
+        for name in self.order:
+            size = circuit.population(name).size
+            self.cells[name] = slice(start, start + size)
+            start += size
+        self.total_cells = start
+        if sparse is None:
+            matrix, _ = circuit.weight_matrix()
+            density = np.count_nonzero(matrix) / max(matrix.size, 1)
+            sparse = start >= SPARSE_MIN_CELLS and density <= SPARSE_MAX_DENSITY
+        self.sparse = bool(sparse)
+
+        noisy = [n for n in self.order if circuit.population(n).noise_std > 0]
+        self._noise_columns: dict[str, slice] = {}
+        column = 0
+        for name in noisy:
+            size = circuit.population(name).size
+            self._noise_columns[name] = slice(column, column + size)
+            column += size
+        self._noise_std = np.concatenate(
+            [np.full(circuit.population(n).size, circuit.population(n).noise_std) for n in noisy]
+        ).astype(dtype) if noisy else np.zeros(0, dtype)
+
+        self._inputs = []
+        self._updates: list[_Update] = []
+        self._needs_snapshot = False
+        for name in self.order:
+            pop = circuit.population(name)
+            if pop.kind == "input":
+                self._inputs.append((
+                    self.cells[name], get_encoder(name, pop.encoder),
+                    tuple(p.name for p in pop.ports), dict(pop.encoder_params), name,
+                ))
+                continue
+            if pop.kind == "leaky" and (dt_s is None or not dt_s > 0):
+                raise CircuitError(f"population {name!r} is leaky: compile with dt_s > 0 (got {dt_s!r})")
+            now, prev = [], []
+            for source in circuit.graph.predecessors(name):
+                edge = circuit.graph.edges[source, name]
+                # A delayed connection from a population already updated this step reads the snapshot.
+                (prev if edge["delay"] and position[source] < position[name] else now).append(
+                    (source, edge["weights"]))
+            span_now, weights_now = self._span_weights(now, pop.size)
+            span_prev, weights_prev = self._span_weights(prev, pop.size)
+            self._needs_snapshot |= span_prev is not None
+            self._updates.append(_Update(
+                name=name, kind=pop.kind, cells=self.cells[name],
+                span_now=span_now, weights_now=weights_now, span_prev=span_prev, weights_prev=weights_prev,
+                bias=float(pop.bias), activation=ACTIVATIONS[pop.activation],
+                activation_params=dict(pop.params), noise_columns=self._noise_columns.get(name),
+                clip=pop.clip, leak_fraction=(dt_s / pop.tau_s) if pop.kind == "leaky" else 0.0,
+                gain=float(pop.gain), leak=float(pop.leak), drive_clip=pop.drive_clip,
+                memory_clip=pop.memory_clip,
+            ))
+        self._outputs = [(p.ports[0].name, self.cells[p.name]) for p in
+                         (circuit.population(n) for n in self.order) if p.kind == "output"]
+        self._memory_names = [u.name for u in self._updates if u.kind == "integrator"]
+
+        if seeds is None:
+            if seed is None:
+                seed = int(np.random.SeedSequence().entropy % (2**31))
+            seeds = [int(seed) + i for i in range(self.batch)]
+        self.seeds = seeds
+        self.reset()
+
+    # -- building -------------------------------------------------------------------------------
+    def _span_weights(self, sources: list[tuple[str, np.ndarray]], size: int):
+        """One (span, size) matrix covering the contiguous state columns of all ``sources``."""
+        if not sources:
+            return None, None
+        lo = min(self.cells[s].start for s, _ in sources)
+        hi = max(self.cells[s].stop for s, _ in sources)
+        weights = np.zeros((hi - lo, size))
+        for source, matrix in sources:
+            cells = self.cells[source]
+            weights[cells.start - lo:cells.stop - lo, :] += matrix.T
+        weights = weights.astype(self.dtype)
+        if self.sparse:
+            weights = scipy.sparse.csr_matrix(weights)
+        return slice(lo, hi), weights
+
+    # -- running --------------------------------------------------------------------------------
+    def reset(self) -> None:
+        """Return every population to its initial rates and memory, and restart the noise streams."""
+        self._state = np.zeros((self.batch, self.total_cells), self.dtype)
+        for name in self.order:
+            self._state[:, self.cells[name]] = self.circuit.population(name).initial
+        self._memory = {
+            name: np.full((self.batch, self.circuit.population(name).size),
+                          self.circuit.population(name).initial, self.dtype)
+            for name in self._memory_names
+        }
+        for name in self._memory_names:
+            self._state[:, self.cells[name]] = self._rates_of_memory(name)
+        self._rngs = [np.random.default_rng(s) for s in self.seeds]
+        columns = self._noise_std.size
+        self._noise_block_steps = max(1, min(256, NOISE_BUFFER_BYTES // max(1, self.batch * columns * self.dtype.itemsize)))
+        self._noise = np.zeros((self.batch, self._noise_block_steps, columns), self.dtype)
+        self._noise_step = self._noise_block_steps  # empty: draw on the first step
+        self.steps = 0
+
+    def _rates_of_memory(self, name: str) -> np.ndarray:
+        update = next(u for u in self._updates if u.name == name)
+        rates = update.activation(self._memory[name].copy(), **update.activation_params)
+        return rates if update.clip is None else np.clip(rates, *update.clip, out=rates)
+
+    def _draw_noise(self) -> np.ndarray:
+        if self._noise_step == self._noise_block_steps:
+            for agent, rng in enumerate(self._rngs):
+                rng.standard_normal(out=self._noise[agent], dtype=self.dtype)
+            self._noise *= self._noise_std
+            self._noise_step = 0
+        noise = self._noise[:, self._noise_step, :]
+        self._noise_step += 1
+        return noise
+
+    def step(self, inputs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Advance every agent one step.
+
+        Parameters
+        ----------
+        inputs : dict of str to ndarray
+            One array per sensor port, shape (batch, *port_shape).
+
+        Returns
+        -------
+        dict of str to ndarray
+            One array per motor port, shape (batch, *port_shape).
+        """
+        state = self._state
+        shapes = self._sensor_shapes
+        for port, shape in shapes.items():
+            value = inputs.get(port)
+            if value is None or getattr(value, "shape", None) != shape:
+                self._raise_input_error(inputs)
+        for cells, encoder, ports, params, _ in self._inputs:
+            state[:, cells] = encoder(*[inputs[p] for p in ports], **params)
+        snapshot = state.copy() if self._needs_snapshot else None
+        noise = self._draw_noise() if self._noise_std.size else None
+
+        for u in self._updates:
+            if u.span_now is not None:
+                net = state[:, u.span_now] @ u.weights_now
+                if u.span_prev is not None:
+                    net += snapshot[:, u.span_prev] @ u.weights_prev
+            elif u.span_prev is not None:
+                net = snapshot[:, u.span_prev] @ u.weights_prev
+            else:
+                net = np.zeros((self.batch, u.cells.stop - u.cells.start), self.dtype)
+            if u.bias:
+                net += u.bias
+            if u.kind == "integrator":
+                if u.drive_clip is not None:
+                    np.clip(net, *u.drive_clip, out=net)
+                memory = self._memory[u.name]
+                memory += u.gain * net
+                if u.leak:
+                    memory -= u.leak
+                if u.memory_clip is not None:
+                    np.clip(memory, *u.memory_clip, out=memory)
+                rates = u.activation(memory.copy(), **u.activation_params)
+            else:
+                rates = u.activation(net, **u.activation_params)
+                if u.kind == "leaky":
+                    previous = state[:, u.cells]
+                    rates = previous + u.leak_fraction * (rates - previous)
+            if u.noise_columns is not None:
+                rates += noise[:, u.noise_columns]
+            if u.clip is not None:
+                np.clip(rates, *u.clip, out=rates)
+            state[:, u.cells] = rates
+        self.steps += 1
+        return {port: state[:, cells].copy() for port, cells in self._outputs}
+
+    def _raise_input_error(self, inputs: dict) -> None:
+        if not isinstance(inputs, dict):
+            raise PortError(f"circuit {self.circuit.name!r}: inputs must be a dict of port -> array")
+        for spec in self.sensors:
+            expected = self._sensor_shapes[spec.name]
+            if spec.name not in inputs:
+                raise PortError(
+                    f"circuit {self.circuit.name!r} reads port {spec.name!r} {expected} but the inputs "
+                    f"have only: {', '.join(sorted(inputs)) or 'nothing'}"
+                )
+            shape = getattr(inputs[spec.name], "shape", None)
+            if shape != expected:
+                raise PortError(
+                    f"circuit {self.circuit.name!r}: port {spec.name!r} expects an array of shape "
+                    f"{expected} (batch, *port_shape) [{spec.units}], got {shape}"
+                )
+
+    # -- reading --------------------------------------------------------------------------------
+    def rates(self, name: str) -> np.ndarray:
+        """A copy of population ``name``'s current rates, shape (batch, size)."""
+        if name not in self.cells:
+            raise CircuitError(
+                f"circuit {self.circuit.name!r} has no population {name!r}; it has: {', '.join(sorted(self.cells))}"
+            )
+        return self._state[:, self.cells[name]].copy()
+
+    def memory(self, name: str) -> np.ndarray:
+        """A copy of integrator ``name``'s memory, shape (batch, size)."""
+        if name not in self._memory:
+            raise CircuitError(
+                f"circuit {self.circuit.name!r}: {name!r} is not an integrator; integrators: "
+                f"{', '.join(self._memory) or 'none'}"
+            )
+        return self._memory[name].copy()
+
+    def set_memory(self, name: str, values: np.ndarray) -> None:
+        """Overwrite integrator ``name``'s memory (broadcast to (batch, size)) and its rates."""
+        self.memory(name)  # checks the name
+        self._memory[name][...] = values
+        self._state[:, self.cells[name]] = self._rates_of_memory(name)
+
+    def all_finite(self) -> bool:
+        """True while every rate and memory is finite (a cheap divergence check)."""
+        return bool(np.isfinite(self._state).all()) and all(np.isfinite(m).all() for m in self._memory.values())
+
+
+def _update_order(circuit) -> list[str]:
+    """Topological order of the undelayed connections, ties broken by population name."""
+    undelayed = nx.DiGraph()
+    undelayed.add_nodes_from(circuit.graph)
+    undelayed.add_edges_from((s, t) for s, t, d in circuit.graph.edges(data=True) if not d["delay"])
+    try:
+        return list(nx.lexicographical_topological_sort(undelayed))
+    except nx.NetworkXUnfeasible:
+        cycle = nx.find_cycle(undelayed)
+        path = " -> ".join([s for s, _ in cycle] + [cycle[0][0]])
+        raise CircuitError(
+            f"circuit {circuit.name!r} has a cycle of undelayed connections ({path}); "
+            "mark one of them delay=True"
+        ) from None

@@ -1,0 +1,98 @@
+"""Sensor and motor ports: the named, shaped, unit-carrying interface between brains and bodies.
+
+A brain declares the sensors it reads and the motors it writes; a body or backend declares the
+sensors it provides and the motor commands it accepts. :func:`bind` checks the two sides agree
+before the first step and raises one :class:`~neuronav.errors.PortError` naming both sides.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterable
+
+from neuronav.errors import PortError
+
+
+@dataclass(frozen=True)
+class SensorSpec:
+    """A sensor port.
+
+    Parameters
+    ----------
+    name : str
+        Port name, e.g. ``"heading"``.
+    shape : tuple of int
+        Shape of one agent's value (the batch dimension is not included).
+    units : str
+        Physical units, e.g. ``"rad"`` or ``"m/s"``; ``""`` for dimensionless.
+    """
+
+    name: str
+    shape: tuple[int, ...]
+    units: str = ""
+
+    def __post_init__(self) -> None:
+        _check_spec(self.name, self.shape)
+
+
+@dataclass(frozen=True)
+class MotorSpec:
+    """A motor port.
+
+    Parameters
+    ----------
+    name : str
+        Port name, e.g. ``"turn"``.
+    shape : tuple of int
+        Shape of one agent's command (no batch dimension).
+    units : str
+        Physical units of the command.
+    range : tuple of float or None
+        Allowed (low, high) range of the command, or None when unbounded.
+    """
+
+    name: str
+    shape: tuple[int, ...]
+    units: str = ""
+    range: tuple[float, float] | None = None
+
+    def __post_init__(self) -> None:
+        _check_spec(self.name, self.shape)
+        if self.range is not None and not self.range[0] <= self.range[1]:
+            raise PortError(f"motor port {self.name!r}: range {self.range} has low > high")
+
+
+def _check_spec(name: str, shape: tuple[int, ...]) -> None:
+    if not isinstance(name, str) or not name:
+        raise PortError(f"port name must be a non-empty string, got {name!r}")
+    if not isinstance(shape, tuple) or not all(isinstance(n, int) and n > 0 for n in shape):
+        raise PortError(f"port {name!r}: shape must be a tuple of positive ints, got {shape!r}")
+
+
+def bind(
+    required: Iterable[SensorSpec | MotorSpec],
+    provided: Iterable[SensorSpec | MotorSpec],
+    *,
+    consumer: str,
+    provider: str,
+) -> None:
+    """Check that every port ``consumer`` needs is provided by ``provider`` with the same shape and units.
+
+    Raises
+    ------
+    PortError
+        Naming the port, both sides and what each side declares.
+    """
+    offered = {spec.name: spec for spec in provided}
+    for need in required:
+        have = offered.get(need.name)
+        if have is None:
+            raise PortError(
+                f"{consumer} needs port {need.name!r} {need.shape} [{need.units}] but {provider} "
+                f"provides only: {', '.join(sorted(offered)) or 'nothing'}"
+            )
+        if tuple(have.shape) != tuple(need.shape) or have.units != need.units:
+            raise PortError(
+                f"port {need.name!r}: {consumer} expects shape {need.shape} [{need.units}] but "
+                f"{provider} provides shape {have.shape} [{have.units}]"
+            )
