@@ -1,0 +1,5 @@
+"""``python -m neuronav``: the command line."""
+
+from neuronav.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,196 @@
+"""The ``neuronav`` command line: list, run, compare, sweep.
+
+Bad input (unknown scenario, backend not installed, bad ``--set`` key or value) prints one line to
+stderr and exits 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import sys
+from pathlib import Path
+
+from neuronav import registry
+from neuronav.config import describe
+from neuronav.errors import ConfigError, NeuronavError
+from neuronav.rundir import trials_csv, write_atomic
+from neuronav.runner import load_scenario, run_scenario
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports a usage error in one line."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"neuronav: error: {message} (see neuronav {self.prog.split()[-1]} --help)\n")
+        raise SystemExit(2)
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="neuronav", description="Embodied simulation of insect navigation.")
+    commands = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    commands.add_parser("list", help="scenarios, backends (with availability), brains, bodies")
+
+    def common(p: argparse.ArgumentParser) -> None:
+        p.add_argument("scenario")
+        p.add_argument("--trials", type=int, default=1, help="seeded trials (trial i uses seed S + i)")
+        p.add_argument("--seed", type=int, default=0)
+        p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
+                       help="override a scenario setting (repeatable)")
+        p.add_argument("--out", type=Path, help="run directory")
+
+    run = commands.add_parser("run", help="run a scenario and write its run directory")
+    common(run)
+    run.add_argument("--backend")
+    run.add_argument("--video", action="store_true", help="write an MP4 of the first trial")
+
+    compare = commands.add_parser("compare", help="run one scenario on several backends side by side")
+    common(compare)
+    compare.add_argument("--backends", required=True, help="comma-separated backend names")
+
+    sweep = commands.add_parser("sweep", help="run a scenario over a grid of settings")
+    common(sweep)
+    sweep.add_argument("--backend")
+    sweep.add_argument("--grid", action="append", required=True, metavar="KEY=V1,V2",
+                       help="a setting and its values (repeatable; the grid is their product)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "list":
+            return _list()
+        if args.command == "run":
+            summary = run_scenario(args.scenario, backend=args.backend, trials=args.trials, seed=args.seed,
+                                   overrides=args.overrides, out_dir=args.out, video=args.video,
+                                   command=["neuronav", *argv])
+            _print_summary(summary)
+            return 0
+        if args.command == "compare":
+            return _compare(args, argv)
+        return _sweep(args, argv)
+    except NeuronavError as error:
+        sys.stderr.write(f"neuronav: error: {error}\n")
+        return 2
+
+
+def _list() -> int:
+    print("scenarios:")
+    for name in registry.names("scenario"):
+        try:
+            scenario = load_scenario(name)
+            print(f"  {name:20s} {scenario.description} [backends: {', '.join(scenario.backends)}]")
+            for key, default, text in describe(scenario.config_type):
+                print(f"      --set {key}={default}  {text}")
+        except NeuronavError as error:
+            print(f"  {name:20s} unavailable: {error}")
+    print("backends:")
+    for name in registry.names("backend"):
+        ok, reason = registry.availability("backend", name)
+        print(f"  {name:20s} {'available' if ok else 'NOT AVAILABLE: ' + reason}")
+    print("brains:")
+    for name in registry.names("brain"):
+        print(f"  {name}")
+    print("bodies:")
+    for name in registry.names("body") or ["(none registered yet)"]:
+        print(f"  {name}")
+    return 0
+
+
+def _print_summary(summary: dict) -> None:
+    metrics = ", ".join(f"{k}={v:.4g}" for k, v in summary["metrics"].items() if isinstance(v, (int, float)))
+    print(f"{summary['scenario']} on {summary['backend']}: {summary['trials']} trials "
+          f"({summary['failed_trials']} failed) in {summary['wall_time_s']:.2f} s")
+    print(f"  {metrics}")
+    print(f"  run directory: {summary['out_dir']}")
+
+
+def _compare(args: argparse.Namespace, argv: list[str]) -> int:
+    backends = [b.strip() for b in args.backends.split(",") if b.strip()]
+    if not backends:
+        raise ConfigError("--backends needs at least one backend name")
+    out = args.out or Path("runs") / f"compare-{args.scenario}"
+    summaries = {}
+    for backend in backends:
+        summaries[backend] = run_scenario(args.scenario, backend=backend, trials=args.trials, seed=args.seed,
+                                          overrides=args.overrides, out_dir=out / backend,
+                                          command=["neuronav", *argv])
+    metrics = sorted({k for s in summaries.values() for k in s["metrics"]})
+    rows = []
+    for backend, s in summaries.items():
+        rtf = s["simulated_time_s"] * s["trials"] / s["wall_time_s"] if s["wall_time_s"] > 0 else float("nan")
+        rows.append({"backend": backend, "trials": s["trials"], "failed_trials": s["failed_trials"],
+                     "wall_time_s": s["wall_time_s"], "real_time_factor": rtf,
+                     **{m: s["metrics"].get(m) for m in metrics}})
+    columns = ["backend", "trials", "failed_trials", "wall_time_s", "real_time_factor", *metrics]
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for row in rows:
+        lines.append("| " + " | ".join(_cell(row[c]) for c in columns) + " |")
+    write_atomic(out / "compare.md", "\n".join(lines) + "\n")
+    write_atomic(out / "compare.csv", "\n".join(",".join(_cell(r[c]) for c in columns)
+                                                for r in [dict(zip(columns, columns)), *rows]) + "\n")
+    _compare_figure(rows, metrics, out / "compare.png")
+    print("\n".join(lines))
+    print(f"comparison: {out / 'compare.md'}")
+    return 0
+
+
+def _cell(value) -> str:
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return "" if value is None else str(value)
+
+
+def _compare_figure(rows: list[dict], metrics: list[str], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    shown = [m for m in metrics if all(isinstance(r.get(m), (int, float)) for r in rows)][:8] + ["real_time_factor"]
+    fig, axes = plt.subplots(1, len(shown), figsize=(2.4 * len(shown), 3), squeeze=False)
+    for ax, metric in zip(axes[0], shown):
+        ax.bar([r["backend"] for r in rows], [r[metric] for r in rows], color="tab:gray")
+        ax.set_title(metric, fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _sweep(args: argparse.Namespace, argv: list[str]) -> int:
+    grid: dict[str, list[str]] = {}
+    for item in args.grid:
+        if "=" not in item:
+            raise ConfigError(f"--grid expects key=v1,v2,..., got {item!r}")
+        key, values = item.split("=", 1)
+        grid[key.strip()] = [v for v in values.split(",") if v != ""]
+        if not grid[key.strip()]:
+            raise ConfigError(f"--grid {key!r} has no values")
+    out = args.out or Path("runs") / f"sweep-{args.scenario}"
+    keys = list(grid)
+    all_rows, points = [], []
+    for values in itertools.product(*(grid[k] for k in keys)):
+        point = dict(zip(keys, values))
+        name = "_".join(f"{k}={v}" for k, v in point.items())
+        summary = run_scenario(args.scenario, backend=args.backend, trials=args.trials, seed=args.seed,
+                               overrides=[*args.overrides, *(f"{k}={v}" for k, v in point.items())],
+                               out_dir=out / name, command=["neuronav", *argv])
+        points.append({"grid": point, "metrics": summary["metrics"], "dir": name})
+        import csv
+        with open(out / name / "trials.csv") as stream:
+            all_rows += [dict(point, **row) for row in csv.DictReader(stream)]
+        print(f"{name}: " + ", ".join(f"{k}={v:.4g}" for k, v in summary["metrics"].items()
+                                      if isinstance(v, (int, float))))
+    write_atomic(out / "trials.csv", trials_csv(all_rows, extra_columns=tuple(keys)))
+    write_atomic(out / "summary.json", json.dumps({"scenario": args.scenario, "grid": grid,
+                                                   "points": points}, indent=2) + "\n")
+    print(f"sweep: {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

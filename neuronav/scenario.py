@@ -1,0 +1,66 @@
+"""The scenario interface: a world, a body, a brain, a protocol, metrics and figures.
+
+A scenario registers under ``neuronav.scenarios`` and is run by the CLI or from Python:
+
+>>> from neuronav.runner import run_scenario
+>>> summary = run_scenario("path-integration", trials=10, seed=1, out_dir="runs/pi")  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+@dataclass
+class ScenarioResult:
+    """What one run of a scenario produced.
+
+    Attributes
+    ----------
+    trials : list of dict
+        One dict per trial: ``trial``, ``seed``, ``success``, ``status`` (``ok``/``failed``),
+        ``error`` (text, empty when ok) and the scenario's metrics (numbers).
+    timeseries : dict of str to ndarray
+        Recorded signals, each with the trial as its first axis (or documented otherwise).
+    aggregates : dict of str to float
+        Metrics defined over all trials rather than per trial (e.g. Stone's tortuosity).
+    simulated_time_s : float
+        Simulated time of one trial, for real-time factors.
+    """
+
+    trials: list[dict]
+    timeseries: dict[str, np.ndarray] = field(default_factory=dict)
+    aggregates: dict[str, float] = field(default_factory=dict)
+    simulated_time_s: float = 0.0
+
+
+class Scenario(ABC):
+    """Base class of registered scenarios.
+
+    Subclasses set ``name``, ``description``, ``config_type`` (a dataclass built with
+    :func:`neuronav.config.field`) and ``backends`` (the backend names they run on), and implement
+    :meth:`run` and :meth:`figures`.
+    """
+
+    name: str = ""
+    description: str = ""
+    config_type: type = object
+    backends: tuple[str, ...] = ()
+    default_backend: str = ""
+
+    @abstractmethod
+    def run(self, config: Any, *, backend: str, trials: int, seed: int) -> ScenarioResult:
+        """Run ``trials`` seeded trials (trial i uses seed ``seed + i``)."""
+
+    @abstractmethod
+    def figures(self, result: ScenarioResult, config: Any, out_dir: Path) -> list[Path]:
+        """Write the scenario's figures into ``out_dir``; return their paths."""
+
+    def smoke_config(self) -> dict[str, Any]:
+        """Overrides that make a very short run, for conformance tests."""
+        return {}

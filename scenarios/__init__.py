@@ -1,0 +1,1 @@
+"""The experiments: world + body + brain + protocol + metrics + figures, registered by id."""

@@ -1,0 +1,200 @@
+"""``path-integration``: Stone et al. 2017's central-complex model walks its agent home.
+
+Protocol (Stone et al. 2017, parameters.md §4): each trial starts at the nest, follows a smooth
+random outbound route (von Mises turns, smoothed; smoothly varying acceleration) while the CX
+integrates heading and velocity, then the CX's motor output steers the agent for the inbound
+phase. All trials run as one batch through one compiled circuit; trial i uses seed ``seed + i``
+for both its route and its neural noise, so any trial re-run alone gives the same numbers.
+
+Metrics per trial: ``closest_distance`` to the nest during homing, ``success`` (closest distance
+within ``success_radius``), ``tortuosity_mu`` and ``tortuosity`` (Stone's straightness measure),
+``decode_error_deg`` (home vector decoded from CPU4 vs the true one at the turn-back point),
+``home_distance`` and ``decoded_distance`` at the turn-back point, ``homing_steps`` (steps until
+within the success radius, NaN if never). Aggregate: Stone's tortuosity τ = 1 / (1 − mean μ).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.signal import lfilter
+
+from brains.cx import decode_home_vector, stone2017
+from neuronav import bind, registry
+from neuronav.config import field
+from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.world import PointAgents, World
+
+
+@dataclass
+class PathIntegrationConfig:
+    """Settings of the path-integration scenario (defaults: Stone et al. 2017)."""
+
+    noise: float = field(0.1, "std of the Gaussian noise on every CX population's rates", min=0.0, max=1.0)
+    outbound_steps: int = field(1500, "steps of the random outbound route", min=1, max=100_000)
+    inbound_steps: int = field(1500, "steps of CX-driven homing", min=1, max=100_000)
+    success_radius: float = field(20.0, "success: homing comes this close to the nest (distance units)",
+                                  min_exclusive=0.0)
+    kappa: float = field(100.0, "von Mises concentration of the outbound turns", min_exclusive=0.0)
+    turn_smoothing: float = field(0.4, "outbound turns are low-pass filtered: y_t = x_t + a*y_(t-1)",
+                                  min=0.0, max_exclusive=1.0)
+    min_acceleration: float = field(0.0, "outbound acceleration, lower bound", min=0.0)
+    max_acceleration: float = field(0.15, "outbound acceleration, upper bound", min=0.0)
+    inbound_acceleration: float = field(0.1, "acceleration while homing", min=0.0)
+    drag: float = field(0.15, "fraction of the velocity lost per step", min=0.0, max_exclusive=1.0)
+    memory_gain: float = field(0.0025, "CPU4 integration gain h per step", min_exclusive=0.0)
+    memory_leak: float = field(0.125, "CPU4 leak factor k (memory loses h*k per step)", min=0.0)
+    record_every: int = field(5, "record positions and neural activity every k steps", min=1)
+    record_trials: int = field(20, "trials whose neural activity is recorded", min=0)
+
+
+class PathIntegration(Scenario):
+    """Stone et al. 2017's path-integration experiment (non-embodied agents on the kinematic backend)."""
+
+    name = "path-integration"
+    description = "CX path integration (Stone et al. 2017): random outbound route, then the CX steers home"
+    config_type = PathIntegrationConfig
+    backends = ("kinematic",)
+    default_backend = "kinematic"
+
+    def smoke_config(self) -> dict:
+        return {"outbound_steps": 120, "inbound_steps": 120, "record_trials": 2}
+
+    # -- running -------------------------------------------------------------------------------
+    def run(self, config: PathIntegrationConfig, *, backend: str, trials: int, seed: int) -> ScenarioResult:
+        n, t_out, t_in = trials, config.outbound_steps, config.inbound_steps
+        seeds = [seed + i for i in range(n)]
+        rotation, acceleration = outbound_routes(config, seeds)
+
+        engine = registry.load("backend", backend)()
+        engine.load(World(), [PointAgents(count=n, mode="stone", drag=config.drag)])
+        engine.reset(seed)
+        brain = stone2017(noise=config.noise, memory_gain=config.memory_gain,
+                          memory_leak=config.memory_leak).compile(batch=n, seeds=seeds)
+        bind(brain.sensors, engine.capabilities.sensors, consumer="stone2017", provider=f"backend {backend!r}")
+
+        k, recorded = config.record_every, min(n, config.record_trials)
+        positions = np.zeros((t_out + t_in + 1, n, 2))
+        samples = (t_out + t_in) // k
+        cpu4 = np.zeros((recorded, samples, 16), np.float32)
+        tb1 = np.zeros((recorded, samples, 8), np.float32)
+        heading = np.zeros((recorded, samples), np.float32)
+        inbound_acceleration = np.full((n, 1), config.inbound_acceleration)
+        for t in range(t_out + t_in):
+            sensed = engine.read(("heading", "velocity"))
+            motor = brain.step(sensed)["motor"]
+            if t < t_out:
+                engine.write({"rotation": rotation[:, t:t + 1], "acceleration": acceleration[:, t:t + 1]})
+            else:
+                if t == t_out:
+                    turnback_memory = brain.memory("CPU4")
+                engine.write({"rotation": motor, "acceleration": inbound_acceleration})
+            engine.step()
+            positions[t + 1] = engine.position
+            if (t + 1) % k == 0 and (t + 1) // k <= samples and recorded:
+                s = (t + 1) // k - 1
+                cpu4[:, s] = brain.memory("CPU4")[:recorded]
+                tb1[:, s] = brain.rates("TB1")[:recorded]
+                heading[:, s] = sensed["heading"][:recorded, 0]
+        if t_in == 0:
+            turnback_memory = brain.memory("CPU4")
+
+        rows, mu = trial_metrics(positions, t_out, turnback_memory, config, seeds)
+        finite_mu = mu[np.isfinite(mu)]
+        aggregates = {"tortuosity": float(1.0 / (1.0 - finite_mu.mean())) if finite_mu.size else float("nan")}
+        timeseries = {
+            "position": np.ascontiguousarray(positions[::k].transpose(1, 0, 2)).astype(np.float32),
+            "cpu4_memory": cpu4, "tb1_rates": tb1, "heading_rad": heading,
+            "turnback_step": np.full(n, t_out, np.int32),
+        }
+        return ScenarioResult(trials=rows, timeseries=timeseries, aggregates=aggregates,
+                              simulated_time_s=float(t_out + t_in))
+
+    # -- figures -------------------------------------------------------------------------------
+    def figures(self, result: ScenarioResult, config: PathIntegrationConfig, out_dir: Path) -> list[Path]:
+        from scenarios.path_integration_figures import write_figures
+
+        return write_figures(result, config, Path(out_dir))
+
+
+def outbound_routes(config: PathIntegrationConfig, seeds: list[int]) -> tuple[np.ndarray, np.ndarray]:
+    """Per-trial rotation (rad/step) and acceleration sequences of the outbound route.
+
+    Turns are von Mises(0, κ) samples low-pass filtered (y_t = x_t + a·y_{t−1}); acceleration
+    follows a cubic spline through random key values in [min, max], one key per 50 steps (at least
+    4), clipped to that range. Each trial draws from its own generator seeded with ``(seed, 1)``.
+
+    Returns
+    -------
+    rotation, acceleration : ndarray, shape (trials, outbound_steps)
+    """
+    steps = config.outbound_steps
+    low, high = sorted((config.min_acceleration, config.max_acceleration))
+    rotation = np.zeros((len(seeds), steps))
+    acceleration = np.zeros((len(seeds), steps))
+    keys = max(4, steps // 50)
+    for i, seed in enumerate(seeds):
+        rng = np.random.default_rng([seed, 1])
+        turns = rng.vonmises(0.0, config.kappa, steps)
+        rotation[i] = lfilter([1.0], [1.0, -config.turn_smoothing], turns)
+        rotation[i, 0] = 0.0
+        key_values = rng.uniform(low, high, keys)
+        spline = CubicSpline(np.linspace(0.0, 1.0, keys), key_values)
+        acceleration[i] = np.clip(spline(np.linspace(0.0, 1.0, steps)), low, high)
+    return rotation, acceleration
+
+
+def stone_tortuosity_mu(distances: np.ndarray, steps: np.ndarray, home_distance: float) -> float:
+    """Stone's straightness of one homing path.
+
+    With L the straight-line distance home at the turn-back point: the closest the agent has come
+    to the nest so far, divided by L, at the moment its homing path length first reaches L (or at
+    the end of homing if it never does). 0 for a straight path home.
+
+    Parameters
+    ----------
+    distances : ndarray, shape (T + 1,)
+        Distance to the nest from the turn-back point onward.
+    steps : ndarray, shape (T,)
+        Length of each homing step.
+    home_distance : float
+        L.
+    """
+    if home_distance <= 0:
+        return float("nan")
+    path_length = np.cumsum(steps)
+    reached = np.flatnonzero(path_length >= home_distance)
+    index = reached[0] + 1 if reached.size else len(distances) - 1
+    return float(np.min(distances[: index + 1]) / home_distance)
+
+
+def trial_metrics(positions: np.ndarray, t_out: int, turnback_memory: np.ndarray,
+                  config: PathIntegrationConfig, seeds: list[int]) -> tuple[list[dict], np.ndarray]:
+    """Per-trial metric rows and Stone's μ per trial from the positions, shape (T + 1, trials, 2)."""
+    distance = np.linalg.norm(positions, axis=2)  # (T + 1, n)
+    homing = distance[t_out:]
+    home_distance = distance[t_out]
+    step_lengths = np.linalg.norm(np.diff(positions[t_out:], axis=0), axis=2)
+    true_home = np.arctan2(-positions[t_out, :, 0], -positions[t_out, :, 1])
+    decoded_direction, decoded_distance = decode_home_vector(turnback_memory, config.memory_gain)
+    decode_error = np.degrees(np.abs(np.angle(np.exp(1j * (decoded_direction - true_home)))))
+    rows, mus = [], []
+    for i, seed in enumerate(seeds):
+        finite = np.isfinite(positions[:, i]).all()
+        closest = float(homing[:, i].min()) if finite else float("nan")
+        mu = stone_tortuosity_mu(homing[:, i], step_lengths[:, i], float(home_distance[i])) if finite else np.nan
+        within = np.flatnonzero(homing[:, i] <= config.success_radius)
+        rows.append({
+            "trial": i, "seed": seed, "success": bool(finite and closest <= config.success_radius),
+            "status": "ok" if finite else "failed", "error": "" if finite else "diverged: position not finite",
+            "closest_distance": closest, "tortuosity_mu": mu,
+            "tortuosity": float(1.0 / (1.0 - mu)) if np.isfinite(mu) and mu < 1 else float("nan"),
+            "decode_error_deg": float(decode_error[i]), "home_distance": float(home_distance[i]),
+            "decoded_distance": float(decoded_distance[i]),
+            "homing_steps": float(within[0]) if within.size else float("nan"),
+        })
+        mus.append(mu)
+    return rows, np.array(mus, dtype=float)
