@@ -14,8 +14,8 @@ Heading is clockwise from +y, so an agent at heading h moves along (sin h, cos h
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Iterable, Sequence
 
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
@@ -118,7 +118,7 @@ class KinematicBackend(BackendBase):
     @property
     def timestep(self) -> float:
         """1 step in ``stone`` mode (units are steps); 0.008 s in ``unicycle`` mode."""
-        return 1.0 if self._require().mode == "stone" else 0.008
+        return 0.008 if self._agents is not None and self._agents.mode == "unicycle" else 1.0
 
     @property
     def time(self) -> float:

@@ -7,7 +7,7 @@ the population, so a circuit stays plain data.
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

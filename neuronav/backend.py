@@ -6,8 +6,9 @@ Backends register under the entry-point group ``neuronav.backends`` and are foun
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import Any, Iterable, Protocol, Sequence, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -58,7 +59,7 @@ class Backend(Protocol):
     @property
     def timestep(self) -> float: ...
     def close(self) -> None: ...
-    def __enter__(self) -> "Backend": ...
+    def __enter__(self) -> Backend: ...
     def __exit__(self, *exc: object) -> None: ...
 
 

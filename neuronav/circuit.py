@@ -9,8 +9,9 @@ source_size), ``delay`` (read the source's value from the previous step) and, fo
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
-from typing import Any, Iterable
+from typing import Any
 
 import networkx as nx
 import numpy as np
@@ -261,7 +262,7 @@ class Circuit:
         return matrix, blocks
 
     # -- composing --------------------------------------------------------------------------
-    def renamed(self, prefix: str) -> "Circuit":
+    def renamed(self, prefix: str) -> Circuit:
         """A copy with every population renamed ``prefix + name`` (ports keep their names)."""
         out = Circuit(self.name)
         mapping = {n: prefix + n for n in self.graph}
@@ -273,9 +274,9 @@ class Circuit:
 
     @classmethod
     def merge(
-        cls, *circuits: "Circuit", prefixes: Iterable[str] | None = None,
+        cls, *circuits: Circuit, prefixes: Iterable[str] | None = None,
         connections: Iterable[tuple] = (), name: str = "merged",
-    ) -> "Circuit":
+    ) -> Circuit:
         """Combine circuits into one, optionally prefixing each one's population names.
 
         Parameters

@@ -13,8 +13,9 @@ agent i of a batch sees exactly the numbers a single run with that agent's seed 
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import networkx as nx
 import numpy as np
@@ -196,7 +197,8 @@ class CompiledCircuit:
             self._state[:, self.cells[name]] = self._rates_of_memory(name)
         self._rngs = [np.random.default_rng(s) for s in self.seeds]
         columns = self._noise_std.size
-        self._noise_block_steps = max(1, min(256, NOISE_BUFFER_BYTES // max(1, self.batch * columns * self.dtype.itemsize)))
+        bytes_per_step = max(1, self.batch * columns * self.dtype.itemsize)
+        self._noise_block_steps = max(1, min(256, NOISE_BUFFER_BYTES // bytes_per_step))
         self._noise = np.zeros((self.batch, self._noise_block_steps, columns), self.dtype)
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
         self.steps = 0

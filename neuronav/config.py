@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Any, Iterable
+from collections.abc import Iterable
+from typing import Any
 
 from neuronav.errors import ConfigError
 
@@ -97,9 +98,8 @@ def apply_overrides(config_type: type, assignments: Iterable[str] | dict[str, An
         values[key] = parse_value(config_type, key, raw) if isinstance(raw, str) else raw
     unknown = set(values) - {f.name for f in dataclasses.fields(config_type)}
     if unknown:
-        raise ConfigError(
-            f"unknown key {sorted(unknown)[0]!r}; allowed: {', '.join(sorted(f.name for f in dataclasses.fields(config_type)))}"
-        )
+        allowed = ", ".join(sorted(f.name for f in dataclasses.fields(config_type)))
+        raise ConfigError(f"unknown key {sorted(unknown)[0]!r}; allowed: {allowed}")
     return validate(config_type(**values))
 
 

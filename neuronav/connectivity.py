@@ -6,7 +6,7 @@ Every rule returns a matrix of shape (target_size, source_size), so that
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -6,7 +6,7 @@ batch. Encoders are pure functions of the port arrays, each of shape (batch, *po
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 

@@ -7,8 +7,8 @@ before the first step and raises one :class:`~neuronav.errors.PortError` naming 
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Iterable
 
 from neuronav.errors import PortError
 

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 
@@ -29,7 +30,8 @@ def check_backend(scenario: Scenario, backend: str | None) -> str:
         if backend not in known:
             raise ConfigError(f"unknown backend {backend!r}; registered: {', '.join(known)}")
         raise ConfigError(
-            f"scenario {scenario.name!r} does not run on backend {backend!r}; it runs on: {', '.join(scenario.backends)}"
+            f"scenario {scenario.name!r} does not run on backend {backend!r}; "
+            f"it runs on: {', '.join(scenario.backends)}"
         )
     registry.load("backend", backend)  # raises a clear error when the engine is not installed
     return backend

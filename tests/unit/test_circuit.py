@@ -117,7 +117,7 @@ def test_leaky_population_follows_euler_solution():
     c.add_population("r", 1, kind="leaky", tau_s=tau_s)
     c.connect("x", "r", weights=[[1.0]])
     sim = c.compile(dt_s=dt_s)
-    for n in range(1, 101):
+    for _ in range(100):
         sim.step({"x": np.ones((1, 1))})
     assert sim.rates("r")[0, 0] == pytest.approx(1 - (1 - dt_s / tau_s) ** 100, rel=1e-12)
     # ... which approaches the continuous solution 1 - exp(-t/tau).

@@ -1,0 +1,88 @@
+"""The kinematic backend: Stone's agent and the unicycle against their equations."""
+
+import numpy as np
+import pytest
+
+from backends.kinematic import KinematicBackend, geometric_calibration
+from neuronav import PortError
+from neuronav.backend import Backend
+from neuronav.errors import ConfigError, SimulationError
+from neuronav.world import PointAgents, World
+
+
+def engine(count=2, mode="stone", drag=0.15):
+    backend = KinematicBackend()
+    backend.load(World(), [PointAgents(count=count, mode=mode, drag=drag)])
+    return backend
+
+
+def test_implements_the_backend_protocol():
+    assert isinstance(engine(), Backend)
+
+
+def test_stone_agent_reaches_terminal_speed():
+    backend = engine(count=3)
+    backend.write({"acceleration": np.full((3, 1), 0.15), "rotation": np.zeros((3, 1))})
+    backend.step(200)
+    speed = backend.read(["speed"])["speed"][:, 0]
+    # v = (v + a)(1 - d) has the fixed point a(1 - d)/d: Stone's top speed 0.85.
+    np.testing.assert_allclose(speed, 0.15 * 0.85 / 0.15, rtol=1e-9)
+    np.testing.assert_allclose(backend.read(["heading"])["heading"], 0.0)
+    assert np.all(backend.read(["position"])["position"][:, 1] > 150)  # heading 0 moves along +y
+
+
+def test_stone_rotation_accumulates_and_sets_direction():
+    backend = engine(count=2)
+    backend.write({"rotation": np.array([[np.pi / 20], [-np.pi / 20]]), "acceleration": np.full((2, 1), 0.1)})
+    backend.step(10)
+    heading = backend.read(["heading"])["heading"][:, 0]
+    np.testing.assert_allclose(heading, [np.pi / 2, -np.pi / 2])
+    velocity = backend.read(["velocity"])["velocity"]
+    assert velocity[0, 0] > 0 > velocity[1, 0]  # clockwise from +y: +90 deg faces +x
+
+
+def test_unicycle_straight_and_turning_on_the_spot():
+    backend = engine(count=3, mode="unicycle")
+    backend.write({"turn": np.array([0.0, 1.0, -1.0]), "stride": np.full(3, np.radians(20))})
+    backend.step(125)  # one second at 8 ms
+    position = backend.read(["position"])["position"]
+    heading = backend.read(["heading"])["heading"][:, 0]
+    assert backend.time == pytest.approx(1.0)
+    assert position[0, 1] > 0.2 and abs(position[0, 0]) < 1e-12 and heading[0] == 0.0
+    np.testing.assert_allclose(position[1:], 0.0, atol=1e-12)  # turn = ±1: on the spot
+    assert heading[1] < 0 < heading[2]  # turn > 0 turns left (counter-clockwise)
+
+
+def test_unicycle_turn_rate_is_monotone_in_turn():
+    calibration = geometric_calibration()
+    stride = calibration.stride_rad.searchsorted(np.radians(20))
+    assert np.all(np.diff(calibration.turn_rate_rad_s[:, stride]) <= 0)
+
+
+def test_bad_commands_and_sensors_are_clear_errors():
+    backend = engine(count=2)
+    with pytest.raises(PortError, match="no sensor 'odour'.*available: heading, position, speed, velocity"):
+        backend.read(["odour"])
+    with pytest.raises(PortError, match="accepts no command 'thrust'"):
+        backend.write({"thrust": np.zeros((2, 1))})
+    with pytest.raises(PortError, match=r"must have shape \(2, 1\)"):
+        backend.write({"rotation": np.zeros((3, 1))})
+    with pytest.raises(SimulationError, match="no cameras"):
+        backend.render("head")
+    with pytest.raises(ConfigError, match="mode 'legged' is unknown"):
+        PointAgents(mode="legged")
+
+
+def test_divergence_stops_with_a_reason():
+    backend = engine(count=1)
+    backend.write({"acceleration": np.full((1, 1), np.inf)})
+    with pytest.raises(SimulationError, match="diverged"):
+        backend.step()
+
+
+def test_apply_force_pushes_one_agent():
+    backend = engine(count=2, drag=0.0)
+    backend.apply_force(1, "thorax", np.array([2.0, 0.0, 0.0]))
+    backend.step()
+    position = backend.read(["position"])["position"]
+    np.testing.assert_allclose(position, [[0, 0], [2.0, 0]])
