@@ -5,7 +5,9 @@ Measures, in one run and on one core:
 (a) batch 1: ``CompiledCircuit.step`` of ``brains.cx.stone2017`` against
     ``brains.cx_reference.StoneNumpy.step`` at the same noise level; target compiled/hand-written <= 1.0;
 (b) batch N (default 1000): the compiled circuit's cost per agent-step (time per step / N) and the
-    per-agent speed-up batch 1 -> batch N; target >= 50x.
+    per-agent speed-up batch 1 -> batch N; target >= 50x. For context it also times (b) with the noise
+    off, and the floor set by the random numbers alone: every agent-step needs one N(0, 1) draw per
+    noisy cell (92 for this circuit), from the agent's own ``np.random.default_rng(seed + i)``.
 
 Inputs (heading (batch, 1), velocity (batch, 2), varying every step along smooth random routes) are
 generated before timing. Each repeat times a loop of ``--steps`` steps after ``--warmup`` untimed
@@ -14,7 +16,7 @@ best (least disturbed) times.
 
 Usage::
 
-    python benchmarks/circuit_step.py [--steps 2048] [--repeats 7] [--batch 1000] [--noise 0.1]
+    python benchmarks/circuit_step.py [--steps 2048] [--repeats 7] [--batch 1000] [--noise 0.1] [--no-noise-free]
 """
 
 from __future__ import annotations
@@ -77,6 +79,19 @@ def bench_compiled(batch: int, steps: int, warmup: int, repeats: int, noise: flo
     return times
 
 
+def bench_normal_draws(cells: int, batch: int, repeats: int) -> list[float]:
+    """Seconds per agent-step spent drawing ``cells`` standard normals, in blocks of 64 steps per agent."""
+    rng = np.random.default_rng(0)
+    block = np.empty((64, cells))
+    per_step = []
+    for _ in range(repeats + 1):  # the first one warms up
+        start = time.perf_counter()
+        for _ in range(batch):
+            rng.standard_normal(out=block)
+        per_step.append((time.perf_counter() - start) / (batch * block.shape[0]))
+    return per_step[1:]
+
+
 def bench_hand_written(steps: int, warmup: int, repeats: int, noise: float, seed: int) -> list[float]:
     model = StoneNumpy(noise=noise, seed=seed)
     headings, velocities = routes(1, steps, seed)
@@ -92,6 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--batch", type=int, default=1000, help="large batch for (b) (default 1000)")
     parser.add_argument("--noise", type=float, default=0.1, help="noise std of every population (default 0.1)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--noise-free", action=argparse.BooleanOptionalAction, default=True,
+                        help="also time (b) with the noise off, to show what the random numbers cost (default on)")
     args = parser.parse_args(argv)
     if args.steps < 1 or args.repeats < 1 or args.warmup < 0 or args.batch < 1:
         parser.error("--steps, --repeats and --batch must be >= 1, --warmup >= 0")
@@ -101,6 +118,13 @@ def main(argv: list[str] | None = None) -> int:
     hand = bench_hand_written(**common)
     one = bench_compiled(batch=1, **common)
     many = bench_compiled(batch=args.batch, **common)
+    noisy_cells = sum(p.size for p in stone2017(noise=args.noise).populations if p.noise_std > 0)
+    if noisy_cells:
+        floor = bench_normal_draws(noisy_cells, args.batch, args.repeats)
+    if args.noise_free:
+        quiet = dict(common, noise=0.0)
+        one_quiet = bench_compiled(batch=1, **quiet)
+        many_quiet = bench_compiled(batch=args.batch, **quiet)
 
     us = 1e6
     print(f"Stone 2017 CX step, noise {args.noise}, {args.steps} steps x {args.repeats} repeats "
@@ -116,6 +140,13 @@ def main(argv: list[str] | None = None) -> int:
         (f"compiled step, batch {args.batch} [us]", many),
         (f"compiled per agent, batch {args.batch} [us]", [t / args.batch for t in many]),
     ]
+    if noisy_cells:
+        rows.append((f"  per agent: its {noisy_cells} N(0,1) draws [us]", floor))
+    if args.noise_free:
+        rows += [
+            ("compiled step, batch 1, noise 0 [us]", one_quiet),
+            (f"compiled per agent, batch {args.batch}, noise 0 [us]", [t / args.batch for t in many_quiet]),
+        ]
     for label, times in rows:
         print(f"{label:<40} {min(times) * us:>12.3f} {statistics.median(times) * us:>12.3f}")
     print()
@@ -128,6 +159,13 @@ def main(argv: list[str] | None = None) -> int:
           f"<= {TARGET_BATCH1_RATIO:.1f}  {'ok' if ratio <= TARGET_BATCH1_RATIO else 'MISSED'}")
     print(f"{f'(b) per-agent cost batch 1 / batch {args.batch}':<40} {speedup:>11.1f}x {median_speedup:>11.1f}x  "
           f">= {TARGET_PER_AGENT_SPEEDUP:.0f}x  {'ok' if speedup >= TARGET_PER_AGENT_SPEEDUP else 'MISSED'}")
+    if args.noise_free:
+        quiet_speedup = min(one_quiet) / (min(many_quiet) / args.batch)
+        quiet_median = statistics.median(one_quiet) / (statistics.median(many_quiet) / args.batch)
+        print(f"{'    the same with noise 0':<40} {quiet_speedup:>11.1f}x {quiet_median:>11.1f}x")
+    if noisy_cells:
+        print(f"{'    ceiling set by the N(0,1) draws':<40} {min(one) / min(floor):>11.1f}x {'':>12}  "
+              "(batch-1 step / draws per agent-step)")
     return 0
 
 

@@ -10,13 +10,18 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from scipy.special import expit
 
 from neuronav.errors import CircuitError
 
 
 def logistic(x: np.ndarray, slope: float = 1.0, bias: float = 0.0) -> np.ndarray:
     """``1 / (1 + exp(-(slope * x - bias)))``: Stone et al. 2017's sigmoid with slope a and bias b."""
-    np.multiply(x, -slope, out=x)
+    if x.size < 512:  # scipy's expit has the least call overhead ...
+        np.multiply(x, slope, out=x)
+        x -= bias
+        return expit(x, out=x)
+    np.multiply(x, -slope, out=x)  # ... numpy's vectorised exp the best throughput
     x += bias
     np.exp(x, out=x)
     x += 1.0

@@ -30,6 +30,20 @@ SPARSE_MIN_CELLS = 2000
 SPARSE_MAX_DENSITY = 0.1
 # Bytes of pre-drawn noise held per circuit at most.
 NOISE_BUFFER_BYTES = 1 << 25
+NOISE_METHODS = ("gaussian", "table")
+# The "table" noise: N(0, 1) quantiles at this many equiprobable levels, indexed by 16 random bits.
+TABLE_LEVELS = 1 << 16
+
+
+def normal_quantile_table(dtype: Any = np.float64) -> np.ndarray:
+    """``Φ⁻¹((k + 0.5) / 65536)`` for k = 0..65535: a 16-bit inverse-CDF table of N(0, 1).
+
+    Sampling it with uniform 16-bit indices gives a distribution within 1/65536 (Kolmogorov
+    distance) of the standard normal, with tails cut at ±4.33 σ.
+    """
+    from scipy.special import ndtri
+
+    return ndtri((np.arange(TABLE_LEVELS) + 0.5) / TABLE_LEVELS).astype(dtype)
 
 
 @dataclass
@@ -39,10 +53,8 @@ class _Update:
     name: str
     kind: str
     cells: slice
-    span_now: slice | None
-    weights_now: Any  # (span, size) dense ndarray or sparse matrix, or None
-    span_prev: slice | None
-    weights_prev: Any
+    # (from_snapshot, span of state columns, weights (span, size) or their diagonal, is_diagonal)
+    reads: list[tuple[bool, slice, Any, bool]]
     bias: float
     activation: Callable[..., np.ndarray]
     activation_params: dict
@@ -73,12 +85,20 @@ class CompiledCircuit:
         Step length in seconds; required when the circuit has ``leaky`` populations.
     sparse : bool, optional
         Store weights as scipy.sparse matrices. Default: only for large, mostly empty circuits.
+    noise_method : {"gaussian", "table"}
+        ``gaussian``: numpy's exact normal sampler. ``table``: 16 random bits per sample index a
+        table of normal quantiles (:func:`normal_quantile_table`) — about 3x cheaper, within
+        1/65536 of N(0, 1) in distribution, tails cut at ±4.33 σ.
     """
 
     def __init__(
         self, circuit, batch: int = 1, seed: int | None = 0, seeds: Sequence[int] | None = None,
         dtype: Any = np.float64, dt_s: float | None = None, sparse: bool | None = None,
+        noise_method: str = "gaussian",
     ) -> None:
+        if noise_method not in NOISE_METHODS:
+            raise CircuitError(f"noise_method {noise_method!r} is unknown; allowed: {', '.join(NOISE_METHODS)}")
+        self.noise_method = noise_method
         if not isinstance(batch, (int, np.integer)) or isinstance(batch, bool) or batch < 1:
             raise CircuitError(f"batch must be a positive int, got {batch!r}")
         dtype = np.dtype(dtype)
@@ -135,20 +155,24 @@ class CompiledCircuit:
                     tuple(p.name for p in pop.ports), dict(pop.encoder_params), name,
                 ))
                 continue
-            if pop.kind == "leaky" and (dt_s is None or not dt_s > 0):
-                raise CircuitError(f"population {name!r} is leaky: compile with dt_s > 0 (got {dt_s!r})")
+            if pop.kind == "leaky":
+                if dt_s is None or not dt_s > 0:
+                    raise CircuitError(f"population {name!r} is leaky: compile with dt_s > 0 (got {dt_s!r})")
+                if dt_s > pop.tau_s:
+                    raise CircuitError(
+                        f"population {name!r}: dt_s = {dt_s:g} s is longer than its tau_s = {pop.tau_s:g} s; "
+                        "Euler integration would oscillate or diverge — use dt_s <= tau_s"
+                    )
             now, prev = [], []
             for source in circuit.graph.predecessors(name):
                 edge = circuit.graph.edges[source, name]
                 # A delayed connection from a population already updated this step reads the snapshot.
                 (prev if edge["delay"] and position[source] < position[name] else now).append(
                     (source, edge["weights"]))
-            span_now, weights_now = self._span_weights(now, pop.size)
-            span_prev, weights_prev = self._span_weights(prev, pop.size)
-            self._needs_snapshot |= span_prev is not None
+            reads = self._reads(now, pop.size, False) + self._reads(prev, pop.size, True)
+            self._needs_snapshot |= bool(prev)
             self._updates.append(_Update(
-                name=name, kind=pop.kind, cells=self.cells[name],
-                span_now=span_now, weights_now=weights_now, span_prev=span_prev, weights_prev=weights_prev,
+                name=name, kind=pop.kind, cells=self.cells[name], reads=reads,
                 bias=float(pop.bias), activation=ACTIVATIONS[pop.activation],
                 activation_params=dict(pop.params), noise_columns=self._noise_columns.get(name),
                 clip=pop.clip, leak_fraction=(dt_s / pop.tau_s) if pop.kind == "leaky" else 0.0,
@@ -167,20 +191,40 @@ class CompiledCircuit:
         self.reset()
 
     # -- building -------------------------------------------------------------------------------
-    def _span_weights(self, sources: list[tuple[str, np.ndarray]], size: int):
-        """One (span, size) matrix covering the contiguous state columns of all ``sources``."""
-        if not sources:
-            return None, None
-        lo = min(self.cells[s].start for s, _ in sources)
-        hi = max(self.cells[s].stop for s, _ in sources)
-        weights = np.zeros((hi - lo, size))
-        for source, matrix in sources:
-            cells = self.cells[source]
-            weights[cells.start - lo:cells.stop - lo, :] += matrix.T
-        weights = weights.astype(self.dtype)
-        if self.sparse:
-            weights = scipy.sparse.csr_matrix(weights)
-        return slice(lo, hi), weights
+    def _reads(self, sources: list[tuple[str, np.ndarray]], size: int, from_snapshot: bool) -> list:
+        """Group sources lying close together in the state into one matrix product each.
+
+        Sources are merged while at least half of the merged span is real source cells (a wide
+        span of mostly zero rows costs more than a second product). A square diagonal block (a
+        one-to-one connection) becomes an element-wise product.
+        """
+        groups: list[list[tuple[str, np.ndarray]]] = []
+        for source, matrix in sorted(sources, key=lambda item: self.cells[item[0]].start):
+            if groups:
+                members = groups[-1] + [(source, matrix)]
+                lo = self.cells[members[0][0]].start
+                filled = sum(self.cells[s].stop - self.cells[s].start for s, _ in members)
+                if filled >= 0.5 * (self.cells[source].stop - lo):
+                    groups[-1] = members
+                    continue
+            groups.append([(source, matrix)])
+        reads = []
+        for members in groups:
+            lo = self.cells[members[0][0]].start
+            hi = max(self.cells[s].stop for s, _ in members)
+            weights = np.zeros((hi - lo, size))
+            for source, matrix in members:
+                cells = self.cells[source]
+                weights[cells.start - lo:cells.stop - lo, :] += matrix.T
+            diagonal = weights.shape[0] == size and not np.any(weights - np.diag(np.diag(weights)))
+            if diagonal:
+                weights = np.diag(weights).astype(self.dtype)
+            elif self.sparse:
+                weights = scipy.sparse.csr_matrix(weights.astype(self.dtype))
+            else:
+                weights = weights.astype(self.dtype)
+            reads.append((from_snapshot, slice(lo, hi), weights, diagonal))
+        return reads
 
     # -- running --------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -198,7 +242,11 @@ class CompiledCircuit:
         self._rngs = [np.random.default_rng(s) for s in self.seeds]
         columns = self._noise_std.size
         bytes_per_step = max(1, self.batch * columns * self.dtype.itemsize)
-        self._noise_block_steps = max(1, min(256, NOISE_BUFFER_BYTES // bytes_per_step))
+        # A multiple of 4 steps, so that a block of 16-bit table indices uses whole 64-bit draws
+        # and an agent's noise does not depend on the block size (nor so on the batch size).
+        self._noise_block_steps = 4 * max(1, min(64, NOISE_BUFFER_BYTES // (4 * bytes_per_step)))
+        if self.noise_method == "table":
+            self._table = normal_quantile_table(self.dtype)
         self._noise = np.zeros((self.batch, self._noise_block_steps, columns), self.dtype)
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
         self.steps = 0
@@ -210,8 +258,14 @@ class CompiledCircuit:
 
     def _draw_noise(self) -> np.ndarray:
         if self._noise_step == self._noise_block_steps:
-            for agent, rng in enumerate(self._rngs):
-                rng.standard_normal(out=self._noise[agent], dtype=self.dtype)
+            if self.noise_method == "table":
+                words = self._noise[0].size // 4
+                indices = np.stack([rng.bit_generator.random_raw(words) for rng in self._rngs]).view(np.uint16)
+                # Fancy indexing: several times faster here than np.take(..., out=...).
+                self._noise = self._table[indices.reshape(self._noise.shape)]
+            else:
+                for agent, rng in enumerate(self._rngs):
+                    rng.standard_normal(out=self._noise[agent], dtype=self.dtype)
             self._noise *= self._noise_std
             self._noise_step = 0
         noise = self._noise[:, self._noise_step, :]
@@ -243,25 +297,27 @@ class CompiledCircuit:
         noise = self._draw_noise() if self._noise_std.size else None
 
         for u in self._updates:
-            if u.span_now is not None:
-                net = state[:, u.span_now] @ u.weights_now
-                if u.span_prev is not None:
-                    net += snapshot[:, u.span_prev] @ u.weights_prev
-            elif u.span_prev is not None:
-                net = snapshot[:, u.span_prev] @ u.weights_prev
-            else:
+            net = None
+            for from_snapshot, span, weights, diagonal in u.reads:
+                source = snapshot[:, span] if from_snapshot else state[:, span]
+                term = source * weights if diagonal else source @ weights
+                if net is None:
+                    net = term
+                else:
+                    net += term
+            if net is None:
                 net = np.zeros((self.batch, u.cells.stop - u.cells.start), self.dtype)
             if u.bias:
                 net += u.bias
             if u.kind == "integrator":
                 if u.drive_clip is not None:
-                    np.clip(net, *u.drive_clip, out=net)
+                    net.clip(*u.drive_clip, out=net)
                 memory = self._memory[u.name]
                 memory += u.gain * net
                 if u.leak:
                     memory -= u.leak
                 if u.memory_clip is not None:
-                    np.clip(memory, *u.memory_clip, out=memory)
+                    memory.clip(*u.memory_clip, out=memory)
                 rates = u.activation(memory.copy(), **u.activation_params)
             else:
                 rates = u.activation(net, **u.activation_params)
@@ -271,7 +327,7 @@ class CompiledCircuit:
             if u.noise_columns is not None:
                 rates += noise[:, u.noise_columns]
             if u.clip is not None:
-                np.clip(rates, *u.clip, out=rates)
+                rates.clip(*u.clip, out=rates)
             state[:, u.cells] = rates
         self.steps += 1
         return {port: state[:, cells].copy() for port, cells in self._outputs}

@@ -47,6 +47,10 @@ class PathIntegrationConfig:
     drag: float = field(0.15, "fraction of the velocity lost per step", min=0.0, max_exclusive=1.0)
     memory_gain: float = field(0.0025, "CPU4 integration gain h per step", min_exclusive=0.0)
     memory_leak: float = field(0.125, "CPU4 leak factor k (memory loses h*k per step)", min=0.0)
+    dtype: str = field("float32", "arithmetic of the CX (float32 is faster; float64 for reference runs)",
+                       choices=("float32", "float64"))
+    noise_method: str = field("table", "CX noise sampler: 'table' (16-bit normal quantiles, faster) or "
+                              "'gaussian' (numpy's exact sampler)", choices=("table", "gaussian"))
     record_every: int = field(5, "record positions and neural activity every k steps", min=1)
     record_trials: int = field(20, "trials whose neural activity is recorded", min=0)
 
@@ -73,7 +77,8 @@ class PathIntegration(Scenario):
         engine.load(World(), [PointAgents(count=n, mode="stone", drag=config.drag)])
         engine.reset(seed)
         brain = stone2017(noise=config.noise, memory_gain=config.memory_gain,
-                          memory_leak=config.memory_leak).compile(batch=n, seeds=seeds)
+                          memory_leak=config.memory_leak).compile(
+            batch=n, seeds=seeds, dtype=config.dtype, noise_method=config.noise_method)
         bind(brain.sensors, engine.capabilities.sensors, consumer="stone2017", provider=f"backend {backend!r}")
 
         k, recorded = config.record_every, min(n, config.record_trials)

@@ -263,3 +263,33 @@ def test_graph_is_networkx_and_plots_draw(tmp_path):
     ax = plot_circuit(circuit)
     ax.figure.savefig(tmp_path / "d.png")
     assert (tmp_path / "m.png").stat().st_size > 1000 and (tmp_path / "d.png").stat().st_size > 1000
+
+
+def test_table_noise_is_standard_normal_and_per_agent():
+    from scipy import stats
+
+    c = Circuit("noise")
+    c.add_population("r", 50, noise_std=1.0)
+    samples = []
+    sim = c.compile(batch=3, seed=1, noise_method="table")
+    for _ in range(400):
+        sim.step({})
+        samples.append(sim.rates("r"))
+    samples = np.array(samples)  # (steps, agents, cells)
+    values = samples.ravel()
+    assert abs(values.mean()) < 0.01 and values.std() == pytest.approx(1.0, abs=0.01)
+    assert stats.kstest(values, "norm").pvalue > 0.01
+    assert np.abs(values).max() < 4.4  # the table's tails stop at 4.33 sigma
+    # Agent i of the batch draws what a single run with seed 1 + i draws.
+    single = c.compile(batch=1, seed=2, noise_method="table")
+    first = [single.step({}) or single.rates("r")[0] for _ in range(5)]
+    np.testing.assert_array_equal(np.array(first), samples[:5, 1])
+    with pytest.raises(CircuitError, match="noise_method 'pink' is unknown"):
+        c.compile(noise_method="pink")
+
+
+def test_leaky_step_longer_than_tau_is_refused():
+    c = Circuit("c")
+    c.add_population("r", 1, kind="leaky", tau_s=1e-3)
+    with pytest.raises(CircuitError, match="longer than its tau_s"):
+        c.compile(dt_s=3e-3)

@@ -24,8 +24,10 @@ def check_against_fig7(result, tortuosity_tolerance):
     assert 1.0 < np.mean(closest) < 5.0  # reference reruns: 2.5 ± 2.4
 
 
-def test_reproduces_fig7_on_100_trials():
-    check_against_fig7(run(100, seed=100), tortuosity_tolerance=0.06)
+@pytest.mark.parametrize("arithmetic", [{}, {"dtype": "float64", "noise_method": "gaussian"}])
+def test_reproduces_fig7_on_100_trials(arithmetic):
+    """Both the fast default (float32, table noise) and exact float64 Gaussian noise reproduce Fig. 7."""
+    check_against_fig7(run(100, seed=100, **arithmetic), tortuosity_tolerance=0.06)
 
 
 @pytest.mark.slow
