@@ -70,8 +70,9 @@ def time_loop(step, arguments: list, warmup: int, repeats: int) -> list[float]:
     return per_step
 
 
-def bench_compiled(batch: int, steps: int, warmup: int, repeats: int, noise: float, seed: int) -> list[float]:
-    compiled = stone2017(noise=noise).compile(batch=batch, seed=seed)
+def bench_compiled(batch: int, steps: int, warmup: int, repeats: int, noise: float, seed: int,
+                   dtype: str = "float64", noise_method: str = "gaussian") -> list[float]:
+    compiled = stone2017(noise=noise).compile(batch=batch, seed=seed, dtype=dtype, noise_method=noise_method)
     headings, velocities = routes(batch, steps, seed)
     inputs = [({"heading": headings[t], "velocity": velocities[t]},) for t in range(steps)]
     times = time_loop(compiled.step, inputs, warmup, repeats)
@@ -106,6 +107,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--warmup", type=int, default=200, help="untimed steps before timing (default 200)")
     parser.add_argument("--batch", type=int, default=1000, help="large batch for (b) (default 1000)")
     parser.add_argument("--noise", type=float, default=0.1, help="noise std of every population (default 0.1)")
+    parser.add_argument("--dtype", choices=("float64", "float32"), default="float64",
+                        help="arithmetic of the compiled circuit (default float64)")
+    parser.add_argument("--noise-method", choices=("gaussian", "table"), default="gaussian",
+                        help="noise sampler of the compiled circuit (default gaussian: numpy's exact sampler)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--noise-free", action=argparse.BooleanOptionalAction, default=True,
                         help="also time (b) with the noise off, to show what the random numbers cost (default on)")
@@ -115,19 +120,21 @@ def main(argv: list[str] | None = None) -> int:
 
     common = dict(steps=args.steps, warmup=min(args.warmup, args.steps), repeats=args.repeats,
                   noise=args.noise, seed=args.seed)
+    arithmetic = dict(dtype=args.dtype, noise_method=args.noise_method)
     hand = bench_hand_written(**common)
-    one = bench_compiled(batch=1, **common)
-    many = bench_compiled(batch=args.batch, **common)
+    one = bench_compiled(batch=1, **common, **arithmetic)
+    many = bench_compiled(batch=args.batch, **common, **arithmetic)
     noisy_cells = sum(p.size for p in stone2017(noise=args.noise).populations if p.noise_std > 0)
     if noisy_cells:
         floor = bench_normal_draws(noisy_cells, args.batch, args.repeats)
     if args.noise_free:
         quiet = dict(common, noise=0.0)
-        one_quiet = bench_compiled(batch=1, **quiet)
-        many_quiet = bench_compiled(batch=args.batch, **quiet)
+        one_quiet = bench_compiled(batch=1, **quiet, **arithmetic)
+        many_quiet = bench_compiled(batch=args.batch, **quiet, **arithmetic)
 
     us = 1e6
-    print(f"Stone 2017 CX step, noise {args.noise}, {args.steps} steps x {args.repeats} repeats "
+    print(f"Stone 2017 CX step ({args.dtype}, {args.noise_method} noise), noise {args.noise}, "
+          f"{args.steps} steps x {args.repeats} repeats "
           f"(+{common['warmup']} warm-up); numpy {np.__version__}, Python {platform.python_version()}, "
           f"{platform.machine()}, OPENBLAS_NUM_THREADS={os.environ['OPENBLAS_NUM_THREADS']}")
     print()

@@ -34,77 +34,24 @@ heading-dependent bias from the 8-column code). Closing the loop with ``heading 
 there; with noise 0.1 it stays within about 31° of the target. With the inverted goal it settles
 near target + 180° instead.
 
-The allowed shifts are ±``max_shift`` (default 3); the compiled circuit raises
-:class:`~neuronav.PortError` for a shift outside them (the ``one_hot`` encoder alone would clip it
-silently). That check lives in :class:`ShiftCheckedCircuit`'s ``compile``: merging or renaming the
-circuit gives a plain :class:`~neuronav.Circuit` without it.
+The allowed shifts are ±``max_shift`` (default 3): the ``shift`` port declares that range, so a
+compiled circuit raises :class:`~neuronav.PortError` for a shift outside it or NaN (the
+``one_hot`` encoder alone would clip it silently).
 """
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from brains.cx import N_COLUMNS, heading_circuit, steering_populations
-from neuronav import Circuit, CompiledCircuit, ConfigError, PortError, SensorSpec
+from neuronav import Circuit, ConfigError, SensorSpec
 
 MAX_SHIFT = 3
 COLUMN_RAD = 2.0 * np.pi / N_COLUMNS
-SHIFT_PORT = SensorSpec("shift", (1,), "columns")
 
-
-class ShiftCheckedCircuit(Circuit):
-    """A :class:`~neuronav.Circuit` whose compiled form rejects shifts outside ±``max_shift``.
-
-    The ``one_hot`` encoder would clip an out-of-range shift silently to the nearest allowed one;
-    this circuit's :meth:`compile` returns a :class:`ShiftCheckedCompiledCircuit` that raises
-    :class:`~neuronav.PortError` instead.
-    """
-
-    def __init__(self, name: str = "copy_and_shift", max_shift: int = MAX_SHIFT) -> None:
-        super().__init__(name)
-        self.max_shift = int(max_shift)
-
-    def compile(self, batch: int = 1, seed: int | None = 0, **options: Any) -> ShiftCheckedCompiledCircuit:
-        """Build the circuit; options as in :class:`~neuronav.CompiledCircuit`."""
-        return ShiftCheckedCompiledCircuit(self, batch=batch, seed=seed, **options)
-
-
-class ShiftCheckedCompiledCircuit(CompiledCircuit):
-    """A compiled copy-and-shift circuit: :meth:`step` checks the ``shift`` port's values first."""
-
-    def step(self, inputs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Check ``inputs["shift"]`` (see :func:`check_shift`), then step as usual."""
-        shift = inputs.get("shift") if isinstance(inputs, dict) else None
-        if getattr(shift, "shape", None) == (self.batch, 1):  # a wrong shape is the core's PortError
-            check_shift(shift, self.circuit.max_shift, self.circuit.name)
-        return super().step(inputs)
-
-
-def check_shift(shift: Any, max_shift: int = MAX_SHIFT, where: str = "copy_and_shift") -> None:
-    """Raise :class:`~neuronav.PortError` unless every shift is finite and rounds into ±``max_shift``.
-
-    Parameters
-    ----------
-    shift : ndarray, shape (batch, 1)
-        Columns to shift (rounded to the nearest integer by the circuit).
-    max_shift : int
-    where : str
-        Who is checking, for the message.
-    """
-    try:
-        values = np.asarray(shift, dtype=float)
-    except (TypeError, ValueError):
-        raise PortError(f"{where}: port 'shift' needs numbers (columns), got {type(shift).__name__}") from None
-    if not np.all(np.isfinite(values)):
-        raise PortError(f"{where}: port 'shift' got a NaN or infinite value")
-    outside = np.abs(np.rint(values)) > max_shift
-    if outside.any():
-        raise PortError(
-            f"{where}: port 'shift' allows -{max_shift}..{max_shift} columns (rounded), "
-            f"got {values[outside].ravel()[0]:g}"
-        )
+def shift_port(max_shift: int = MAX_SHIFT) -> SensorSpec:
+    """The ``shift`` sensor port: columns, rounded by the circuit, within ±(max_shift + 0.5)."""
+    return SensorSpec("shift", (1,), "columns", range=(-max_shift - 0.5, max_shift + 0.5))
 
 
 def shift_weights(max_shift: int = MAX_SHIFT) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -149,7 +96,7 @@ def copy_and_shift(noise: float = 0.0, max_shift: int = MAX_SHIFT, invert_goal: 
 
     Returns
     -------
-    ShiftCheckedCircuit
+    Circuit
         Reads ``heading`` (rad, clockwise from +y, shape (1,)) and ``shift`` (columns, shape (1,));
         writes ``motor`` (rad to add to the heading, shape (1,)). Compiled, it raises
         :class:`~neuronav.PortError` for a shift outside ±``max_shift``.
@@ -159,15 +106,11 @@ def copy_and_shift(noise: float = 0.0, max_shift: int = MAX_SHIFT, invert_goal: 
     if not isinstance(noise, (int, float)) or not np.isfinite(noise) or noise < 0:
         raise ConfigError(f"copy_and_shift: noise must be a finite number >= 0, got {noise!r}")
     base = heading_circuit(noise, name="copy_and_shift")
-    circuit = ShiftCheckedCircuit("copy_and_shift", max_shift=int(max_shift))
-    for node in base.graph:
-        circuit.add(base.population(node))
-    for source, target, data in base.graph.edges(data=True):
-        circuit.graph.add_edge(source, target, **data)
+    circuit = Circuit.merge(base, name="copy_and_shift")
 
     n_gates = 2 * int(max_shift) + 1
     from_tb1, from_gate, to_goal = shift_weights(int(max_shift))
-    circuit.add_input("shift_gate", n_gates, ports=[SHIFT_PORT], encoder="one_hot",
+    circuit.add_input("shift_gate", n_gates, ports=[shift_port(int(max_shift))], encoder="one_hot",
                       encoder_params={"size": n_gates, "offset": int(max_shift)})
     circuit.add_population("shifter", N_COLUMNS * n_gates, activation="relu", bias=-1.0)
     circuit.connect("TB1", "shifter", weights=from_tb1)

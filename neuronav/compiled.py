@@ -117,6 +117,7 @@ class CompiledCircuit:
         self.sensors = circuit.sensors
         self.motors = circuit.motors
         self._sensor_shapes = {s.name: (self.batch, *s.shape) for s in self.sensors}
+        self._sensor_ranges = [(s.name, *s.range) for s in self.sensors if s.range is not None]
 
         self.order = _update_order(circuit)
         position = {name: i for i, name in enumerate(self.order)}
@@ -291,6 +292,13 @@ class CompiledCircuit:
             value = inputs.get(port)
             if value is None or getattr(value, "shape", None) != shape:
                 self._raise_input_error(inputs)
+        for port, low, high in self._sensor_ranges:
+            value = inputs[port]
+            if not (value.min() >= low and value.max() <= high):  # False for NaN too
+                bad = value[~((value >= low) & (value <= high))].ravel()[0]
+                raise PortError(
+                    f"circuit {self.circuit.name!r}: port {port!r} accepts values in [{low:g}, {high:g}], got {bad!r}"
+                )
         for cells, encoder, ports, params, _ in self._inputs:
             state[:, cells] = encoder(*[inputs[p] for p in ports], **params)
         snapshot = state.copy() if self._needs_snapshot else None

@@ -25,14 +25,20 @@ class SensorSpec:
         Shape of one agent's value (the batch dimension is not included).
     units : str
         Physical units, e.g. ``"rad"`` or ``"m/s"``; ``""`` for dimensionless.
+    range : tuple of float or None
+        Allowed (low, high) values, checked on every step by a compiled circuit that reads the
+        port (NaN is outside every range), or None when any finite or infinite value is accepted.
     """
 
     name: str
     shape: tuple[int, ...]
     units: str = ""
+    range: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         _check_spec(self.name, self.shape)
+        if self.range is not None and not self.range[0] <= self.range[1]:
+            raise PortError(f"sensor port {self.name!r}: range {self.range} has low > high")
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,115 @@
+"""Benchmark: the 1000-trial path-integration validation run, batched vs one trial at a time.
+
+Measures on one core (BLAS pinned to one thread before numpy is imported):
+
+1. the batched run as ``neuronav run path-integration --trials 1000`` does it — all 1000 trials in
+   one compiled circuit and one kinematic backend — with the scenario's defaults (float32, table
+   noise) and with exact arithmetic (float64, numpy's Gaussian sampler);
+2. the same trials run one by one with the hand-written numpy model
+   (``brains.cx_reference.StoneNumpy``) and the agent equations written out per step: the same
+   routes (``outbound_routes``), 1500 steps out and 1500 back. Running all 1000 that way takes
+   minutes, so ``--baseline-trials`` of them are timed and the per-trial time is multiplied by the
+   trial count (printed as an extrapolation).
+
+Targets (issue 2): batched at least 100x faster than one by one, and under 3 s.
+
+Usage::
+
+    python benchmarks/path_integration_1000.py [--trials 1000] [--baseline-trials 20] [--seed 0]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_variable] = "1"
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from brains.cx_reference import StoneNumpy  # noqa: E402
+from neuronav.config import apply_overrides  # noqa: E402
+from neuronav.runner import load_scenario, run_trials  # noqa: E402
+from scenarios.path_integration import PathIntegrationConfig, outbound_routes  # noqa: E402
+
+TARGET_SPEEDUP = 100.0
+TARGET_WALL_S = 3.0
+
+
+def batched(trials: int, seed: int, overrides: dict) -> tuple[float, float, float]:
+    """Wall time, success rate and tortuosity of the batched scenario run."""
+    scenario = load_scenario("path-integration")
+    config = apply_overrides(PathIntegrationConfig, overrides)
+    started = time.perf_counter()
+    result = run_trials(scenario, config, "kinematic", trials, seed)
+    wall_s = time.perf_counter() - started
+    success = np.mean([t["success"] for t in result.trials])
+    return wall_s, float(success), result.aggregates["tortuosity"]
+
+
+def one_trial(seed: int, config: PathIntegrationConfig) -> float:
+    """One trial with the hand-written model; returns the closest approach to the nest."""
+    rotation, acceleration = outbound_routes(config, [seed])
+    model = StoneNumpy(noise=config.noise, seed=seed)
+    heading, velocity, position = 0.0, np.zeros(2), np.zeros(2)
+    closest = np.inf
+    for t in range(config.outbound_steps + config.inbound_steps):
+        motor = model.step(heading, velocity)
+        if t < config.outbound_steps:
+            heading += rotation[0, t]
+            thrust = acceleration[0, t]
+        else:
+            heading += motor
+            thrust = config.inbound_acceleration
+        velocity = (velocity + thrust * np.array([np.sin(heading), np.cos(heading)])) * (1.0 - config.drag)
+        position = position + velocity
+        if t >= config.outbound_steps:
+            closest = min(closest, float(np.hypot(*position)))
+    return closest
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--trials", type=int, default=1000)
+    parser.add_argument("--baseline-trials", type=int, default=20)
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    if args.trials < 1 or not 1 <= args.baseline_trials <= args.trials:
+        parser.error("need --trials >= 1 and 1 <= --baseline-trials <= --trials")
+
+    fast_s, fast_success, fast_tortuosity = batched(args.trials, args.seed, {})
+    exact_s, exact_success, exact_tortuosity = batched(
+        args.trials, args.seed, {"dtype": "float64", "noise_method": "gaussian"})
+    config = PathIntegrationConfig()
+    started = time.perf_counter()
+    closest = [one_trial(args.seed + i, config) for i in range(args.baseline_trials)]
+    per_trial_s = (time.perf_counter() - started) / args.baseline_trials
+    one_by_one_s = per_trial_s * args.trials
+
+    print(f"path-integration, {args.trials} trials x {config.outbound_steps}+{config.inbound_steps} steps, "
+          f"noise {config.noise}, one core")
+    print(f"{'run':<58} {'wall s':>9} {'success':>8} {'tortuosity':>10}")
+    print(f"{'batched, float32 + table noise (scenario default)':<58} {fast_s:>9.2f} "
+          f"{100 * fast_success:>7.1f}% {fast_tortuosity:>10.3f}")
+    print(f"{'batched, float64 + Gaussian noise (exact)':<58} {exact_s:>9.2f} "
+          f"{100 * exact_success:>7.1f}% {exact_tortuosity:>10.3f}")
+    print(f"{'one by one, hand-written numpy (extrapolated from ' + str(args.baseline_trials) + ')':<58} "
+          f"{one_by_one_s:>9.1f} {100 * np.mean(np.array(closest) <= 20):>7.1f}%")
+    print()
+    print(f"{'speed-up, default vs one by one':<40} {one_by_one_s / fast_s:>8.1f}x   target >= {TARGET_SPEEDUP:.0f}x  "
+          f"{'met' if one_by_one_s / fast_s >= TARGET_SPEEDUP else 'MISSED'}")
+    print(f"{'speed-up, exact vs one by one':<40} {one_by_one_s / exact_s:>8.1f}x")
+    print(f"{'wall time, default':<40} {fast_s:>8.2f} s  target < {TARGET_WALL_S:.0f} s  "
+          f"{'met' if fast_s < TARGET_WALL_S else 'MISSED'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
