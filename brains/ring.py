@@ -37,8 +37,6 @@ whose inverse-variance weighted mean is 126.8°):
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from neuronav import Circuit, ConfigError, PortError, SensorSpec
@@ -50,41 +48,6 @@ DT_S = 1e-4
 SETTLE_S = 0.2
 TAU_E_S = 5e-3
 TAU_I_S = 2.5e-4
-
-
-class RingAttractorCircuit(Circuit):
-    """A :class:`~neuronav.Circuit` whose :meth:`compile` defaults to the paper's Euler step.
-
-    Explicit Euler on these equations diverges once the step approaches the inhibitory cell's time
-    constant (at 0.5 ms with tau_I = 0.25 ms the rates reach 1e238 within 0.2 s, without ever
-    becoming inf), so :meth:`compile` refuses a step longer than half the shorter time constant.
-    """
-
-    def __init__(self, name: str = "ring_attractor", tau_e_s: float = TAU_E_S, tau_i_s: float = TAU_I_S) -> None:
-        super().__init__(name)
-        self.tau_e_s = float(tau_e_s)
-        self.tau_i_s = float(tau_i_s)
-
-    @property
-    def max_dt_s(self) -> float:
-        """Longest Euler step :meth:`compile` accepts: half the shorter time constant."""
-        return 0.5 * min(self.tau_e_s, self.tau_i_s)
-
-    def compile(self, batch: int = 1, seed: int | None = 0, dt_s: float | None = DT_S, **options: Any):
-        """Build the circuit (``dt_s`` defaults to :data:`DT_S`); options as in :class:`~neuronav.CompiledCircuit`.
-
-        Raises
-        ------
-        ConfigError
-            When ``dt_s`` is longer than :attr:`max_dt_s`.
-        """
-        if dt_s is not None and np.isfinite(dt_s) and dt_s > self.max_dt_s * (1 + 1e-12):
-            raise ConfigError(
-                f"ring attractor {self.name!r}: dt_s = {dt_s:g} s is too long for Euler with tau_I = "
-                f"{self.tau_i_s:g} s and tau_E = {self.tau_e_s:g} s; use dt_s <= {self.max_dt_s:g} s "
-                f"(the paper: {DT_S:g} s)"
-            )
-        return super().compile(batch=batch, seed=seed, dt_s=dt_s, **options)
 
 
 def cell_angles_rad(n_cells: int = N_CELLS) -> np.ndarray:
@@ -141,7 +104,7 @@ def ring_attractor(
 
     Returns
     -------
-    RingAttractorCircuit
+    Circuit
         Reads ``cues`` (shape (n_cells,), dimensionless; added to the E cells' net input); writes
         no motor port. Populations: ``cue_in`` (input), ``E`` (leaky, relu, n_cells), ``I``
         (leaky, relu, 1).
@@ -157,7 +120,7 @@ def ring_attractor(
     for label, value in (("sigma_rad", sigma_rad), ("tau_e_s", tau_e_s), ("tau_i_s", tau_i_s)):
         if not isinstance(value, (int, float, np.floating)) or not np.isfinite(value) or value <= 0:
             raise ConfigError(f"ring_attractor: {label} must be a finite number > 0, got {value!r}")
-    circuit = RingAttractorCircuit(name, tau_e_s=float(tau_e_s), tau_i_s=float(tau_i_s))
+    circuit = Circuit(name, dt_s=DT_S)
     circuit.add_input("cue_in", n_cells, ports=[cues_port(n_cells)], encoder="identity")
     circuit.add_population("E", n_cells, kind="leaky", activation="relu", bias=float(gamma_e),
                            tau_s=float(tau_e_s), initial=float(initial_e))

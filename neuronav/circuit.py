@@ -128,9 +128,11 @@ class Circuit:
     >>> sim = c.compile(batch=1)
     """
 
-    def __init__(self, name: str = "circuit") -> None:
+    def __init__(self, name: str = "circuit", dt_s: float | None = None) -> None:
         self.name = name
         self.graph = nx.DiGraph(name=name)
+        # The step length compile() uses when none is given (needed by leaky populations).
+        self.dt_s = dt_s
 
     # -- declaring --------------------------------------------------------------------------
     def add(self, population: Population) -> Population:
@@ -264,7 +266,7 @@ class Circuit:
     # -- composing --------------------------------------------------------------------------
     def renamed(self, prefix: str) -> Circuit:
         """A copy with every population renamed ``prefix + name`` (ports keep their names)."""
-        out = Circuit(self.name)
+        out = Circuit(self.name, dt_s=self.dt_s)
         mapping = {n: prefix + n for n in self.graph}
         for node in self.graph:
             out.add(replace(self.population(node), name=mapping[node]))
@@ -291,7 +293,10 @@ class Circuit:
         prefixes = list(prefixes) if prefixes is not None else [""] * len(circuits)
         if len(prefixes) != len(circuits):
             raise CircuitError(f"merge: {len(circuits)} circuits but {len(prefixes)} prefixes")
-        out = cls(name)
+        steps = {c.dt_s for c in circuits if c.dt_s is not None}
+        if len(steps) > 1:
+            raise CircuitError(f"merge: the circuits declare different dt_s {sorted(steps)}; compile with one")
+        out = cls(name, dt_s=steps.pop() if steps else None)
         for circuit, prefix in zip(circuits, prefixes):
             part = circuit.renamed(prefix) if prefix else circuit
             for node in part.graph:
@@ -303,11 +308,14 @@ class Circuit:
             out.connect(source, target, **(rest[0] if rest else {}))
         return out
 
-    def compile(self, batch: int = 1, seed: int | None = 0, **options: Any):
-        """Build the circuit into a :class:`~neuronav.compiled.CompiledCircuit`; options as there."""
+    def compile(self, batch: int = 1, seed: int | None = 0, dt_s: float | None = None, **options: Any):
+        """Build the circuit into a :class:`~neuronav.compiled.CompiledCircuit`; options as there.
+
+        ``dt_s`` defaults to the circuit's own ``dt_s`` (set by factories such as the ring attractor).
+        """
         from neuronav.compiled import CompiledCircuit
 
-        return CompiledCircuit(self, batch=batch, seed=seed, **options)
+        return CompiledCircuit(self, batch=batch, seed=seed, dt_s=self.dt_s if dt_s is None else dt_s, **options)
 
     def __repr__(self) -> str:
         return (f"Circuit({self.name!r}, {self.graph.number_of_nodes()} populations, "

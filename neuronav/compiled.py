@@ -159,10 +159,10 @@ class CompiledCircuit:
             if pop.kind == "leaky":
                 if dt_s is None or not dt_s > 0:
                     raise CircuitError(f"population {name!r} is leaky: compile with dt_s > 0 (got {dt_s!r})")
-                if dt_s > pop.tau_s:
+                if dt_s > 0.5 * pop.tau_s:
                     raise CircuitError(
-                        f"population {name!r}: dt_s = {dt_s:g} s is longer than its tau_s = {pop.tau_s:g} s; "
-                        "Euler integration would oscillate or diverge — use dt_s <= tau_s"
+                        f"population {name!r}: dt_s = {dt_s:g} s is longer than half its tau_s = {pop.tau_s:g} s; "
+                        "Euler integration would oscillate or diverge — use dt_s <= tau_s / 2"
                     )
             now, prev = [], []
             for source in circuit.graph.predecessors(name):
@@ -248,6 +248,10 @@ class CompiledCircuit:
         self._noise_block_steps = 4 * max(1, min(64, NOISE_BUFFER_BYTES // (4 * bytes_per_step)))
         if self.noise_method == "table":
             self._table = normal_quantile_table(self.dtype)
+            # One noise level for every population (the usual case): fold it into the table.
+            self._table_scaled = bool(columns) and np.all(self._noise_std == self._noise_std[0])
+            if self._table_scaled:
+                self._table = self._table * self._noise_std[0]
         self._noise = np.zeros((self.batch, self._noise_block_steps, columns), self.dtype)
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
         self.steps = 0
@@ -264,10 +268,12 @@ class CompiledCircuit:
                 indices = np.stack([rng.bit_generator.random_raw(words) for rng in self._rngs]).view(np.uint16)
                 # Fancy indexing: several times faster here than np.take(..., out=...).
                 self._noise = self._table[indices.reshape(self._noise.shape)]
+                if not self._table_scaled:
+                    self._noise *= self._noise_std
             else:
                 for agent, rng in enumerate(self._rngs):
                     rng.standard_normal(out=self._noise[agent], dtype=self.dtype)
-            self._noise *= self._noise_std
+                self._noise *= self._noise_std
             self._noise_step = 0
         noise = self._noise[:, self._noise_step, :]
         self._noise_step += 1

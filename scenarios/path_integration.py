@@ -138,17 +138,17 @@ def outbound_routes(config: PathIntegrationConfig, seeds: list[int]) -> tuple[np
     """
     steps = config.outbound_steps
     low, high = sorted((config.min_acceleration, config.max_acceleration))
-    rotation = np.zeros((len(seeds), steps))
-    acceleration = np.zeros((len(seeds), steps))
     keys = max(4, steps // 50)
-    for i, seed in enumerate(seeds):
+    turns = np.zeros((len(seeds), steps))
+    key_values = np.zeros((len(seeds), keys))
+    for i, seed in enumerate(seeds):  # each trial's own stream; the filtering below is batched
         rng = np.random.default_rng([seed, 1])
-        turns = rng.vonmises(0.0, config.kappa, steps)
-        rotation[i] = lfilter([1.0], [1.0, -config.turn_smoothing], turns)
-        rotation[i, 0] = 0.0
-        key_values = rng.uniform(low, high, keys)
-        spline = CubicSpline(np.linspace(0.0, 1.0, keys), key_values)
-        acceleration[i] = np.clip(spline(np.linspace(0.0, 1.0, steps)), low, high)
+        turns[i] = rng.vonmises(0.0, config.kappa, steps)
+        key_values[i] = rng.uniform(low, high, keys)
+    rotation = lfilter([1.0], [1.0, -config.turn_smoothing], turns, axis=1)
+    rotation[:, 0] = 0.0
+    spline = CubicSpline(np.linspace(0.0, 1.0, keys), key_values, axis=1)
+    acceleration = np.clip(spline(np.linspace(0.0, 1.0, steps)), low, high)
     return rotation, acceleration
 
 

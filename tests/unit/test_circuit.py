@@ -291,5 +291,5 @@ def test_table_noise_is_standard_normal_and_per_agent():
 def test_leaky_step_longer_than_tau_is_refused():
     c = Circuit("c")
     c.add_population("r", 1, kind="leaky", tau_s=1e-3)
-    with pytest.raises(CircuitError, match="longer than its tau_s"):
+    with pytest.raises(CircuitError, match="longer than half its tau_s"):
         c.compile(dt_s=3e-3)

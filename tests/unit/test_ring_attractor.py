@@ -7,7 +7,7 @@ import pytest
 
 from brains import bump_heading_rad, ring_attractor
 from brains.ring import CUE_AMPLITUDE, DT_S, N_CELLS, SETTLE_S, gaussian_cue, settle
-from neuronav import ConfigError, PortError
+from neuronav import CircuitError, ConfigError, PortError
 
 
 def _wrap_deg(angle_rad: np.ndarray) -> np.ndarray:
@@ -133,5 +133,5 @@ def test_bad_arguments_and_ports_give_neuronav_errors():
 def test_compile_defaults_to_the_papers_step_and_refuses_unstable_steps():
     circuit = ring_attractor()
     assert circuit.compile(batch=1).dt_s == DT_S
-    with pytest.raises(ConfigError, match="dt_s"):
+    with pytest.raises(CircuitError, match="dt_s"):
         circuit.compile(batch=1, dt_s=5e-4)  # Euler diverges there (the I cell's tau is 0.25 ms)
