@@ -94,9 +94,9 @@ def run_scenario(
     check_counts(trials, seed)
     config = apply_overrides(scenario.config_type, overrides)
     if video:
-        raise ConfigError(
-            f"--video needs a backend with cameras; {backend!r} has none (video comes with the physics backends)"
-        )
+        if not registry.load("backend", backend).capabilities.can_render:
+            raise ConfigError(f"--video needs a backend with cameras; {backend!r} has none")
+        raise ConfigError(f"scenario {name!r} does not record video yet")
     out_dir = Path(out_dir) if out_dir is not None else Path("runs") / f"{name}-{backend}-seed{seed}"
     started = time.perf_counter()
     result = run_trials(scenario, config, backend, int(trials), int(seed))
