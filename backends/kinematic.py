@@ -185,7 +185,11 @@ class KinematicBackend(BackendBase):
 
     # -- helpers -------------------------------------------------------------------------------
     def _direction(self) -> np.ndarray:
-        return np.stack([np.sin(self.heading), np.cos(self.heading)], axis=1)
+        """Unit vectors of the headings, (sin h, cos h), shape (batch, 2)."""
+        direction = np.empty((self.heading.size, 2))
+        np.sin(self.heading, out=direction[:, 0])
+        np.cos(self.heading, out=direction[:, 1])
+        return direction
 
     def _require(self) -> PointAgents:
         if self._agents is None:

@@ -56,12 +56,13 @@ def heading_circuit(noise: float = 0.1, name: str = "heading") -> Circuit:
     """The compass part shared by every CX model: heading -> TL2 -> CL1 -> TB1 (with TB1 -> TB1)."""
     circuit = Circuit(name)
     noisy = dict(noise_std=noise, clip=(0.0, 1.0))
-    circuit.add_input("heading_in", 16, ports=[HEADING_PORT], encoder="cosine_tuning",
-                      encoder_params={"preferred_rad": preferred_headings_rad(16)})
+    # TL2 cell i receives cos(θ − φ_i): the heading's unit vector through preferred-direction weights.
+    circuit.add_input("heading_in", 2, ports=[HEADING_PORT], encoder="heading_vector")
     circuit.add_population("TL2", 16, activation="logistic", params={"slope": 6.8, "bias": 3.0}, **noisy)
     circuit.add_population("CL1", 16, activation="logistic", params={"slope": 3.0, "bias": -0.5}, **noisy)
     circuit.add_population("TB1", 8, activation="logistic", params={"slope": 5.0, "bias": 0.0}, **noisy)
-    circuit.connect("heading_in", "TL2", rule="one_to_one")
+    preferred = preferred_headings_rad(16)
+    circuit.connect("heading_in", "TL2", weights=np.stack([np.sin(preferred), np.cos(preferred)], axis=1))
     circuit.connect("TL2", "CL1", rule="one_to_one", sign=-1)
     circuit.connect("CL1", "TB1", rule="fold", gain=0.667)
     circuit.connect("TB1", "TB1", rule="cosine_ring", gain=0.333, sign=-1, delay=True)
@@ -107,12 +108,15 @@ def stone2017(noise: float = 0.1, memory_gain: float = CPU4_GAIN, memory_leak: f
     """
     circuit = heading_circuit(noise, name="stone2017")
     noisy = dict(noise_std=noise, clip=(0.0, 1.0))
-    circuit.add_input("flow", 2, ports=[HEADING_PORT, VELOCITY_PORT], encoder="heading_flow",
-                      encoder_params={"preferred_offsets_rad": np.array([tn_offset_rad, -tn_offset_rad])})
+    # Each TN cell receives the speed along heading ± tn_offset: the body-frame velocity
+    # (forward, rightward) through weights (cos o, sin o).
+    circuit.add_input("body_velocity", 2, ports=[HEADING_PORT, VELOCITY_PORT], encoder="body_velocity")
+    offsets = np.array([tn_offset_rad, -tn_offset_rad])
+    tn_directions = np.stack([np.cos(offsets), np.sin(offsets)], axis=1)
     circuit.add_population("TN1", 2, bias=0.5, **noisy)
     circuit.add_population("TN2", 2, **noisy)
-    circuit.connect("flow", "TN1", rule="one_to_one", gain=0.5, sign=-1)
-    circuit.connect("flow", "TN2", rule="one_to_one")
+    circuit.connect("body_velocity", "TN1", weights=tn_directions, gain=0.5, sign=-1)
+    circuit.connect("body_velocity", "TN2", weights=tn_directions)
     circuit.add_population(
         "CPU4", 16, kind="integrator", activation="logistic", params={"slope": 5.0, "bias": 2.5},
         gain=memory_gain, leak=memory_gain * memory_leak, drive_clip=(0.0, 1.0),

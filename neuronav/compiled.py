@@ -1,8 +1,9 @@
 """CompiledCircuit: a circuit built into block matrices and index slices, stepped for a batch.
 
 All N agents advance together: every population's rates live in one state array of shape
-(N, total_cells); each population reads the contiguous span of that array its sources occupy
-through one matrix product. Populations update in a topological order of the undelayed
+(total_cells, N) — cells by agents, so that every element-wise operation runs over long
+contiguous rows; each population reads the contiguous span of that array its sources occupy
+through one matrix product. The public methods speak (N, size), the batch first. Populations update in a topological order of the undelayed
 connections (ties broken by name, so the order — and the numbers — never depend on the order the
 populations were declared in). A delayed connection reads its source as it was at the start of the
 step.
@@ -213,13 +214,13 @@ class CompiledCircuit:
         for members in groups:
             lo = self.cells[members[0][0]].start
             hi = max(self.cells[s].stop for s, _ in members)
-            weights = np.zeros((hi - lo, size))
+            weights = np.zeros((size, hi - lo))
             for source, matrix in members:
                 cells = self.cells[source]
-                weights[cells.start - lo:cells.stop - lo, :] += matrix.T
-            diagonal = weights.shape[0] == size and not np.any(weights - np.diag(np.diag(weights)))
+                weights[:, cells.start - lo:cells.stop - lo] += matrix
+            diagonal = weights.shape[1] == size and not np.any(weights - np.diag(np.diag(weights)))
             if diagonal:
-                weights = np.diag(weights).astype(self.dtype)
+                weights = np.diag(weights).astype(self.dtype)[:, None]
             elif self.sparse:
                 weights = scipy.sparse.csr_matrix(weights.astype(self.dtype))
             else:
@@ -230,16 +231,16 @@ class CompiledCircuit:
     # -- running --------------------------------------------------------------------------------
     def reset(self) -> None:
         """Return every population to its initial rates and memory, and restart the noise streams."""
-        self._state = np.zeros((self.batch, self.total_cells), self.dtype)
+        self._state = np.zeros((self.total_cells, self.batch), self.dtype)
         for name in self.order:
-            self._state[:, self.cells[name]] = self.circuit.population(name).initial
+            self._state[self.cells[name]] = self.circuit.population(name).initial
         self._memory = {
-            name: np.full((self.batch, self.circuit.population(name).size),
+            name: np.full((self.circuit.population(name).size, self.batch),
                           self.circuit.population(name).initial, self.dtype)
             for name in self._memory_names
         }
         for name in self._memory_names:
-            self._state[:, self.cells[name]] = self._rates_of_memory(name)
+            self._state[self.cells[name]] = self._rates_of_memory(name)
         self._rngs = [np.random.default_rng(s) for s in self.seeds]
         columns = self._noise_std.size
         bytes_per_step = max(1, self.batch * columns * self.dtype.itemsize)
@@ -252,7 +253,8 @@ class CompiledCircuit:
             self._table_scaled = bool(columns) and np.all(self._noise_std == self._noise_std[0])
             if self._table_scaled:
                 self._table = self._table * self._noise_std[0]
-        self._noise = np.zeros((self.batch, self._noise_block_steps, columns), self.dtype)
+        # Laid out (step, cell, agent), like the state.
+        self._noise = np.zeros((self._noise_block_steps, columns, self.batch), self.dtype)
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
         self.steps = 0
 
@@ -263,19 +265,26 @@ class CompiledCircuit:
 
     def _draw_noise(self) -> np.ndarray:
         if self._noise_step == self._noise_block_steps:
+            steps, columns, batch = self._noise.shape
+            # Each agent draws its (step, cell) block in order from its own stream.
             if self.noise_method == "table":
-                words = self._noise[0].size // 4
-                indices = np.stack([rng.bit_generator.random_raw(words) for rng in self._rngs]).view(np.uint16)
-                # Fancy indexing: several times faster here than np.take(..., out=...).
-                self._noise = self._table[indices.reshape(self._noise.shape)]
+                # 64 random bits give four 16-bit table indices. Transpose the words to
+                # (word, agent) — a quarter of the data a transpose of the samples would move —
+                # then gather in (word, sample-in-word, agent) order: (step, cell, agent).
+                words = steps * columns // 4
+                drawn = np.stack([rng.bit_generator.random_raw(words) for rng in self._rngs])
+                indices = np.ascontiguousarray(drawn.T).view(np.uint16).reshape(words, batch, 4)
+                self._noise = self._table[indices.transpose(0, 2, 1)].reshape(steps, columns, batch)
                 if not self._table_scaled:
-                    self._noise *= self._noise_std
+                    self._noise *= self._noise_std[:, None]
             else:
+                draws = np.empty((batch, steps, columns), self.dtype)
                 for agent, rng in enumerate(self._rngs):
-                    rng.standard_normal(out=self._noise[agent], dtype=self.dtype)
-                self._noise *= self._noise_std
+                    rng.standard_normal(out=draws[agent], dtype=self.dtype)
+                self._noise = np.ascontiguousarray(draws.transpose(1, 2, 0))
+                self._noise *= self._noise_std[:, None]
             self._noise_step = 0
-        noise = self._noise[:, self._noise_step, :]
+        noise = self._noise[self._noise_step]
         self._noise_step += 1
         return noise
 
@@ -306,21 +315,21 @@ class CompiledCircuit:
                     f"circuit {self.circuit.name!r}: port {port!r} accepts values in [{low:g}, {high:g}], got {bad!r}"
                 )
         for cells, encoder, ports, params, _ in self._inputs:
-            state[:, cells] = encoder(*[inputs[p] for p in ports], **params)
+            state[cells] = encoder(*[inputs[p] for p in ports], **params).T
         snapshot = state.copy() if self._needs_snapshot else None
         noise = self._draw_noise() if self._noise_std.size else None
 
         for u in self._updates:
             net = None
             for from_snapshot, span, weights, diagonal in u.reads:
-                source = snapshot[:, span] if from_snapshot else state[:, span]
-                term = source * weights if diagonal else source @ weights
+                source = snapshot[span] if from_snapshot else state[span]
+                term = weights * source if diagonal else weights @ source
                 if net is None:
                     net = term
                 else:
                     net += term
             if net is None:
-                net = np.zeros((self.batch, u.cells.stop - u.cells.start), self.dtype)
+                net = np.zeros((u.cells.stop - u.cells.start, self.batch), self.dtype)
             if u.bias:
                 net += u.bias
             if u.kind == "integrator":
@@ -336,15 +345,15 @@ class CompiledCircuit:
             else:
                 rates = u.activation(net, **u.activation_params)
                 if u.kind == "leaky":
-                    previous = state[:, u.cells]
+                    previous = state[u.cells]
                     rates = previous + u.leak_fraction * (rates - previous)
             if u.noise_columns is not None:
-                rates += noise[:, u.noise_columns]
+                rates += noise[u.noise_columns]
             if u.clip is not None:
                 rates.clip(*u.clip, out=rates)
-            state[:, u.cells] = rates
+            state[u.cells] = rates
         self.steps += 1
-        return {port: state[:, cells].copy() for port, cells in self._outputs}
+        return {port: state[cells].T.copy() for port, cells in self._outputs}
 
     def _raise_input_error(self, inputs: dict) -> None:
         if not isinstance(inputs, dict):
@@ -370,7 +379,7 @@ class CompiledCircuit:
             raise CircuitError(
                 f"circuit {self.circuit.name!r} has no population {name!r}; it has: {', '.join(sorted(self.cells))}"
             )
-        return self._state[:, self.cells[name]].copy()
+        return self._state[self.cells[name]].T.copy()
 
     def memory(self, name: str) -> np.ndarray:
         """A copy of integrator ``name``'s memory, shape (batch, size)."""
@@ -379,13 +388,13 @@ class CompiledCircuit:
                 f"circuit {self.circuit.name!r}: {name!r} is not an integrator; integrators: "
                 f"{', '.join(self._memory) or 'none'}"
             )
-        return self._memory[name].copy()
+        return self._memory[name].T.copy()
 
     def set_memory(self, name: str, values: np.ndarray) -> None:
         """Overwrite integrator ``name``'s memory (broadcast to (batch, size)) and its rates."""
         self.memory(name)  # checks the name
-        self._memory[name][...] = values
-        self._state[:, self.cells[name]] = self._rates_of_memory(name)
+        self._memory[name][...] = np.broadcast_to(values, self._memory[name].T.shape).T
+        self._state[self.cells[name]] = self._rates_of_memory(name)
 
     def all_finite(self) -> bool:
         """True while every rate and memory is finite (a cheap divergence check)."""

@@ -26,35 +26,36 @@ def cosine_tuning(heading_rad: np.ndarray, preferred_rad: np.ndarray) -> np.ndar
     heading_rad : ndarray, shape (batch, 1)
     preferred_rad : ndarray, shape (size,)
     """
-    preferred_rad = np.asarray(preferred_rad)
-    if heading_rad.shape[0] < 32:  # small batches: one call is cheapest
-        return np.cos(heading_rad - preferred_rad)
-    # cos(h - p) = cos h cos p + sin h sin p: two trig calls per agent instead of one per cell.
-    return np.cos(heading_rad) * np.cos(preferred_rad) + np.sin(heading_rad) * np.sin(preferred_rad)
+    return np.cos(heading_rad - np.asarray(preferred_rad)[None, :])
 
 
-def heading_flow(
-    heading_rad: np.ndarray, velocity: np.ndarray, preferred_offsets_rad: np.ndarray
-) -> np.ndarray:
-    """World velocity projected onto directions at fixed offsets from the heading (TN cells).
+def heading_vector(heading_rad: np.ndarray) -> np.ndarray:
+    """The unit vector of the heading, ``(sin h, cos h)`` (heading clockwise from +y): shape (batch, 2).
 
-    Heading is measured clockwise from +y, so a direction ``d`` is the unit vector
-    ``(sin d, cos d)``. Stone et al. 2017 use offsets of +45 deg and -45 deg.
+    A population reading it through weights whose rows are preferred directions
+    ``(sin p_i, cos p_i)`` receives ``cos(h - p_i)``: cosine tuning at the cost of two trig calls
+    per agent.
+    """
+    return np.concatenate([np.sin(heading_rad), np.cos(heading_rad)], axis=1)
+
+
+def body_velocity(heading_rad: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+    """World velocity resolved in the body frame: (forward, rightward), shape (batch, 2).
+
+    Forward is along the heading ``(sin h, cos h)``, rightward 90° clockwise of it
+    ``(cos h, -sin h)``. A cell reading it with weights ``(cos o, sin o)`` receives the speed along
+    the direction ``h + o`` — Stone et al. 2017's TN cells use o = ±45°.
 
     Parameters
     ----------
     heading_rad : ndarray, shape (batch, 1)
     velocity : ndarray, shape (batch, 2)
         World-frame (vx, vy).
-    preferred_offsets_rad : ndarray, shape (size,)
     """
-    # v . (sin(h + o), cos(h + o)) = cos o * forward + sin o * rightward, with the velocity
-    # resolved along the heading (forward) and 90 degrees clockwise of it (rightward).
     sin_h, cos_h = np.sin(heading_rad), np.cos(heading_rad)
     forward = velocity[:, :1] * sin_h + velocity[:, 1:2] * cos_h
     rightward = velocity[:, :1] * cos_h - velocity[:, 1:2] * sin_h
-    offsets = np.asarray(preferred_offsets_rad)
-    return forward * np.cos(offsets) + rightward * np.sin(offsets)
+    return np.concatenate([forward, rightward], axis=1)
 
 
 def one_hot(index: np.ndarray, size: int, offset: int = 0) -> np.ndarray:
@@ -68,7 +69,8 @@ def one_hot(index: np.ndarray, size: int, offset: int = 0) -> np.ndarray:
 ENCODERS: dict[str, Callable[..., np.ndarray]] = {
     "identity": identity,
     "cosine_tuning": cosine_tuning,
-    "heading_flow": heading_flow,
+    "heading_vector": heading_vector,
+    "body_velocity": body_velocity,
     "one_hot": one_hot,
 }
 

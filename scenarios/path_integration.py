@@ -109,7 +109,8 @@ class PathIntegration(Scenario):
 
         rows, mu = trial_metrics(positions, t_out, turnback_memory, config, seeds)
         finite_mu = mu[np.isfinite(mu)]
-        aggregates = {"tortuosity": float(1.0 / (1.0 - finite_mu.mean())) if finite_mu.size else float("nan")}
+        mean_mu = finite_mu.mean() if finite_mu.size else float("nan")
+        aggregates = {"tortuosity": float(1.0 / (1.0 - mean_mu)) if mean_mu < 1 else float("nan")}
         timeseries = {
             "position": np.ascontiguousarray(positions[::k].transpose(1, 0, 2)).astype(np.float32),
             "cpu4_memory": cpu4, "tb1_rates": tb1, "heading_rad": heading,
