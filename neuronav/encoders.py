@@ -36,7 +36,9 @@ def heading_vector(heading_rad: np.ndarray) -> np.ndarray:
     ``(sin p_i, cos p_i)`` receives ``cos(h - p_i)``: cosine tuning at the cost of two trig calls
     per agent.
     """
-    return np.concatenate([np.sin(heading_rad), np.cos(heading_rad)], axis=1)
+    heading = heading_rad[:, 0]
+    # Built as (2, batch) and returned transposed: the compiled circuit stores cells x agents.
+    return np.stack([np.sin(heading), np.cos(heading)]).T
 
 
 def body_velocity(heading_rad: np.ndarray, velocity: np.ndarray) -> np.ndarray:
@@ -52,10 +54,15 @@ def body_velocity(heading_rad: np.ndarray, velocity: np.ndarray) -> np.ndarray:
     velocity : ndarray, shape (batch, 2)
         World-frame (vx, vy).
     """
-    sin_h, cos_h = np.sin(heading_rad), np.cos(heading_rad)
-    forward = velocity[:, :1] * sin_h + velocity[:, 1:2] * cos_h
-    rightward = velocity[:, :1] * cos_h - velocity[:, 1:2] * sin_h
-    return np.concatenate([forward, rightward], axis=1)
+    heading = heading_rad[:, 0]
+    sin_h, cos_h = np.sin(heading), np.cos(heading)
+    vx, vy = velocity.T
+    body = np.empty((2, heading.size), heading.dtype)
+    np.multiply(vx, sin_h, out=body[0])
+    body[0] += vy * cos_h
+    np.multiply(vx, cos_h, out=body[1])
+    body[1] -= vy * sin_h
+    return body.T  # (batch, 2), stored agents-last like the compiled circuit's state
 
 
 def one_hot(index: np.ndarray, size: int, offset: int = 0) -> np.ndarray:

@@ -153,8 +153,8 @@ def outbound_routes(config: PathIntegrationConfig, seeds: list[int]) -> tuple[np
     return rotation, acceleration
 
 
-def stone_tortuosity_mu(distances: np.ndarray, steps: np.ndarray, home_distance: float) -> float:
-    """Stone's straightness of one homing path.
+def stone_tortuosity_mu(distances: np.ndarray, steps: np.ndarray, home_distance) -> np.ndarray | float:
+    """Stone's straightness of homing paths (one, or one per column).
 
     With L the straight-line distance home at the turn-back point: the closest the agent has come
     to the nest so far, divided by L, at the moment its homing path length first reaches L (or at
@@ -162,19 +162,29 @@ def stone_tortuosity_mu(distances: np.ndarray, steps: np.ndarray, home_distance:
 
     Parameters
     ----------
-    distances : ndarray, shape (T + 1,)
+    distances : ndarray, shape (T + 1,) or (T + 1, trials)
         Distance to the nest from the turn-back point onward.
-    steps : ndarray, shape (T,)
+    steps : ndarray, shape (T,) or (T, trials)
         Length of each homing step.
-    home_distance : float
+    home_distance : float or ndarray, shape (trials,)
         L.
+
+    Returns
+    -------
+    float or ndarray, shape (trials,)
+        μ; NaN where L is not positive.
     """
-    if home_distance <= 0:
-        return float("nan")
-    path_length = np.cumsum(steps)
-    reached = np.flatnonzero(path_length >= home_distance)
-    index = reached[0] + 1 if reached.size else len(distances) - 1
-    return float(np.min(distances[: index + 1]) / home_distance)
+    single = np.ndim(distances) == 1
+    distances = distances.reshape(len(distances), -1)
+    steps = steps.reshape(len(steps), -1)
+    home = np.broadcast_to(np.asarray(home_distance, float), distances.shape[1:])
+    reached = np.cumsum(steps, axis=0) >= home
+    # Index into distances of the first step whose path length reaches L, else the last one.
+    index = np.where(reached.any(axis=0), reached.argmax(axis=0) + 1, len(distances) - 1)
+    closest_so_far = np.minimum.accumulate(distances, axis=0)[index, np.arange(distances.shape[1])]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mu = np.where(home > 0, closest_so_far / home, np.nan)
+    return float(mu[0]) if single else mu
 
 
 def trial_metrics(positions: np.ndarray, t_out: int, turnback_memory: np.ndarray,
@@ -187,12 +197,16 @@ def trial_metrics(positions: np.ndarray, t_out: int, turnback_memory: np.ndarray
     true_home = np.arctan2(-positions[t_out, :, 0], -positions[t_out, :, 1])
     decoded_direction, decoded_distance = decode_home_vector(turnback_memory, config.memory_gain)
     decode_error = np.degrees(np.abs(np.angle(np.exp(1j * (decoded_direction - true_home)))))
-    rows, mus = [], []
+    finite_trials = np.isfinite(positions).all(axis=(0, 2))
+    closest_all = homing.min(axis=0)
+    mus = np.where(finite_trials, stone_tortuosity_mu(homing, step_lengths, home_distance), np.nan)
+    arrived = homing <= config.success_radius
+    first_arrival = np.where(arrived.any(axis=0), arrived.argmax(axis=0), -1)
+    rows = []
     for i, seed in enumerate(seeds):
-        finite = np.isfinite(positions[:, i]).all()
-        closest = float(homing[:, i].min()) if finite else float("nan")
-        mu = stone_tortuosity_mu(homing[:, i], step_lengths[:, i], float(home_distance[i])) if finite else np.nan
-        within = np.flatnonzero(homing[:, i] <= config.success_radius)
+        finite = bool(finite_trials[i])
+        closest = float(closest_all[i]) if finite else float("nan")
+        mu = float(mus[i])
         rows.append({
             "trial": i, "seed": seed, "success": bool(finite and closest <= config.success_radius),
             "status": "ok" if finite else "failed", "error": "" if finite else "diverged: position not finite",
@@ -200,7 +214,6 @@ def trial_metrics(positions: np.ndarray, t_out: int, turnback_memory: np.ndarray
             "tortuosity": float(1.0 / (1.0 - mu)) if np.isfinite(mu) and mu < 1 else float("nan"),
             "decode_error_deg": float(decode_error[i]), "home_distance": float(home_distance[i]),
             "decoded_distance": float(decoded_distance[i]),
-            "homing_steps": float(within[0]) if within.size else float("nan"),
+            "homing_steps": float(first_arrival[i]) if first_arrival[i] >= 0 else float("nan"),
         })
-        mus.append(mu)
-    return rows, np.array(mus, dtype=float)
+    return rows, mus
