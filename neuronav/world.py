@@ -10,6 +10,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from neuronav.errors import ConfigError
 
 GROUND_KINDS = ("flat", "uneven", "wall")
@@ -19,21 +21,73 @@ POINT_MODES = ("stone", "unicycle")
 
 @dataclass(frozen=True)
 class Ground:
-    """The ground: ``flat``, ``uneven`` (a heightfield of ``roughness_m``) or a vertical ``wall``."""
+    """The ground under the agents.
+
+    ``flat``: a plane. ``uneven``: a heightfield of ``cells`` x ``cells`` over a square of
+    ``size_m``, smooth random bumps with standard deviation ``roughness_m`` and correlation length
+    ``feature_m``, the same for every backend (generated here from ``seed``). ``wall``: flat ground
+    and a vertical wall facing -x at x = ``wall_distance_m``, spanning y, ``wall_height_m`` high.
+    """
 
     kind: str = "flat"
     roughness_m: float = 0.0
+    size_m: float = 20.0
+    cells: int = 129
+    feature_m: float = 0.4
+    seed: int = 0
+    wall_distance_m: float = 1.0
+    wall_height_m: float = 8.0
+    friction: float = 1.0
 
     def __post_init__(self) -> None:
         if self.kind not in GROUND_KINDS:
             raise ConfigError(f"ground kind {self.kind!r} is unknown; allowed: {', '.join(GROUND_KINDS)}")
         if self.roughness_m < 0:
             raise ConfigError(f"ground roughness_m must be >= 0, got {self.roughness_m}")
+        for label in ("size_m", "feature_m", "wall_distance_m", "wall_height_m", "friction"):
+            if not getattr(self, label) > 0:
+                raise ConfigError(f"ground {label} must be > 0, got {getattr(self, label)}")
+        if not isinstance(self.cells, int) or self.cells < 3:
+            raise ConfigError(f"ground cells must be an int >= 3, got {self.cells!r}")
+
+    def heights_m(self) -> np.ndarray:
+        """Terrain heights, shape (cells, cells): row i is y, column j is x, both from -size/2 to size/2.
+
+        Zero-mean Gaussian-filtered white noise scaled to ``roughness_m``, then shifted so that the
+        lowest point is at 0 (engines' heightfields start at the ground plane). Flat and wall
+        grounds are all zeros.
+        """
+        if self.kind != "uneven" or self.roughness_m == 0:
+            return np.zeros((self.cells, self.cells))
+        from scipy.ndimage import gaussian_filter
+
+        rng = np.random.default_rng(self.seed)
+        spacing_m = self.size_m / (self.cells - 1)
+        field = gaussian_filter(rng.standard_normal((self.cells, self.cells)), self.feature_m / spacing_m,
+                                mode="wrap")
+        field *= self.roughness_m / field.std()
+        return field - field.min()
+
+    def height_at(self, x_m: float, y_m: float) -> float:
+        """Terrain height under (x, y), bilinear between heightfield samples."""
+        heights = self.heights_m()
+        half = self.size_m / 2.0
+        scale = (self.cells - 1) / self.size_m
+        u = np.clip((x_m + half) * scale, 0, self.cells - 1.000001)
+        v = np.clip((y_m + half) * scale, 0, self.cells - 1.000001)
+        j, i = int(u), int(v)
+        fu, fv = u - j, v - i
+        return float((1 - fv) * ((1 - fu) * heights[i, j] + fu * heights[i, j + 1])
+                     + fv * ((1 - fu) * heights[i + 1, j] + fu * heights[i + 1, j + 1]))
 
 
 @dataclass(frozen=True)
 class WorldObject:
-    """A static object: a primitive ``shape`` of ``size_m`` at ``position_m`` with an RGBA colour."""
+    """A static object: a primitive ``shape`` of ``size_m`` at ``position_m`` with an RGBA colour.
+
+    Sizes as for body geoms: box half-extents (3); cylinder and cone (radius, half_height); sphere
+    (radius,). Cylinders and cones stand upright (along z).
+    """
 
     shape: str
     position_m: tuple[float, float, float]
@@ -47,10 +101,19 @@ class WorldObject:
 
 @dataclass(frozen=True)
 class World:
-    """What every backend builds: a ground and static objects."""
+    """What every backend builds: a ground, static objects, and adhesion for climbing.
+
+    ``adhesion_n``: while a contact site's geom (a claw) touches a surface, a force of this size
+    presses it into that surface (0: off). Backends apply it every physics step.
+    """
 
     ground: Ground = field(default_factory=Ground)
     objects: tuple[WorldObject, ...] = ()
+    adhesion_n: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not self.adhesion_n >= 0:
+            raise ConfigError(f"world adhesion_n must be >= 0, got {self.adhesion_n}")
 
 
 @dataclass(frozen=True)
