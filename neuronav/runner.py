@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from neuronav import registry
+from neuronav.backend import Capabilities
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
 from neuronav.rundir import write_run_directory
@@ -44,13 +45,14 @@ def check_counts(trials: Any, seed: Any) -> None:
         raise ConfigError(f"seed must be a non-negative integer, got {seed!r}")
 
 
-def run_trials(scenario: Scenario, config: Any, backend: str, trials: int, seed: int) -> ScenarioResult:
+def run_trials(scenario: Scenario, config: Any, backend: str, trials: int, seed: int,
+               video_path: Path | None = None) -> ScenarioResult:
     """Run all trials at once; if that fails, run them one by one so one bad trial loses no other.
 
     Trial i always uses seed ``seed + i``, so a trial re-run alone gives the same numbers.
     """
     try:
-        return scenario.run(config, backend=backend, trials=trials, seed=seed)
+        return scenario.run(config, backend=backend, trials=trials, seed=seed, video_path=video_path)
     except Exception as batch_error:  # noqa: BLE001 - a failed batch falls back to single trials
         if trials == 1:
             return ScenarioResult(trials=[_failed(0, seed, batch_error)])
@@ -58,7 +60,8 @@ def run_trials(scenario: Scenario, config: Any, backend: str, trials: int, seed:
     rows: list[dict] = []
     for i in range(trials):
         try:
-            single = scenario.run(config, backend=backend, trials=1, seed=seed + i)
+            single = scenario.run(config, backend=backend, trials=1, seed=seed + i,
+                                  video_path=video_path if i == 0 else None)
             row = dict(single.trials[0], trial=i)
             results.append(single)
         except Exception as error:  # noqa: BLE001 - recorded as this trial's failure
@@ -75,6 +78,18 @@ def run_trials(scenario: Scenario, config: Any, backend: str, trials: int, seed:
                 pass
     return ScenarioResult(trials=rows, timeseries=timeseries,
                           simulated_time_s=finished[0].simulated_time_s if finished else 0.0)
+
+
+def can_render(backend_class: type) -> bool:
+    """Whether a backend class renders cameras, without starting an engine.
+
+    Backends whose capabilities are fixed say so in a class-level :class:`Capabilities`; those
+    that compute them on load may set a class attribute ``can_render``.
+    """
+    capabilities = getattr(backend_class, "capabilities", None)
+    if isinstance(capabilities, Capabilities):
+        return capabilities.can_render
+    return bool(getattr(backend_class, "can_render", True))
 
 
 def _failed(trial: int, seed: int, error: BaseException) -> dict:
@@ -94,12 +109,15 @@ def run_scenario(
     check_counts(trials, seed)
     config = apply_overrides(scenario.config_type, overrides)
     if video:
-        if not registry.load("backend", backend).capabilities.can_render:
+        if not can_render(registry.load("backend", backend)):
             raise ConfigError(f"--video needs a backend with cameras; {backend!r} has none")
-        raise ConfigError(f"scenario {name!r} does not record video yet")
+        if not scenario.records_video:
+            raise ConfigError(f"scenario {name!r} does not record video")
     out_dir = Path(out_dir) if out_dir is not None else Path("runs") / f"{name}-{backend}-seed{seed}"
+    out_dir.mkdir(parents=True, exist_ok=True)
     started = time.perf_counter()
-    result = run_trials(scenario, config, backend, int(trials), int(seed))
+    result = run_trials(scenario, config, backend, int(trials), int(seed),
+                        video_path=out_dir / "trial0.mp4" if video else None)
     wall_time_s = time.perf_counter() - started
     out_dir.mkdir(parents=True, exist_ok=True)
     figures = scenario.figures(result, config, out_dir) if any(

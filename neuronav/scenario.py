@@ -52,10 +52,16 @@ class Scenario(ABC):
     config_type: type = object
     backends: tuple[str, ...] = ()
     default_backend: str = ""
+    records_video: bool = False
 
     @abstractmethod
-    def run(self, config: Any, *, backend: str, trials: int, seed: int) -> ScenarioResult:
-        """Run ``trials`` seeded trials (trial i uses seed ``seed + i``)."""
+    def run(self, config: Any, *, backend: str, trials: int, seed: int,
+            video_path: Path | None = None) -> ScenarioResult:
+        """Run ``trials`` seeded trials (trial i uses seed ``seed + i``).
+
+        When ``video_path`` is given (only for scenarios with ``records_video``), write an MP4 of the
+        first trial there.
+        """
 
     @abstractmethod
     def figures(self, result: ScenarioResult, config: Any, out_dir: Path) -> list[Path]:

@@ -68,7 +68,8 @@ class PathIntegration(Scenario):
         return {"outbound_steps": 120, "inbound_steps": 120, "record_trials": 2}
 
     # -- running -------------------------------------------------------------------------------
-    def run(self, config: PathIntegrationConfig, *, backend: str, trials: int, seed: int) -> ScenarioResult:
+    def run(self, config: PathIntegrationConfig, *, backend: str, trials: int, seed: int,
+            video_path: Path | None = None) -> ScenarioResult:
         n, t_out, t_in = trials, config.outbound_steps, config.inbound_steps
         seeds = [seed + i for i in range(n)]
         rotation, acceleration = outbound_routes(config, seeds)
