@@ -28,6 +28,17 @@ def logistic(x: np.ndarray, slope: float = 1.0, bias: float = 0.0) -> np.ndarray
     return np.reciprocal(x, out=x)
 
 
+def logistic_of_negated(x: np.ndarray) -> np.ndarray:
+    """``1 / (1 + exp(x))``: the logistic of an input already mapped to ``-(slope * I - bias)``.
+
+    The compiled circuit folds a logistic population's slope and bias into its weights, which
+    saves two passes over the rates every step.
+    """
+    np.exp(x, out=x)
+    x += 1.0
+    return np.reciprocal(x, out=x)
+
+
 def relu(x: np.ndarray) -> np.ndarray:
     """Rectified linear: ``max(x, 0)``."""
     return np.maximum(x, 0.0, out=x)

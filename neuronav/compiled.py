@@ -22,7 +22,7 @@ import networkx as nx
 import numpy as np
 import scipy.sparse
 
-from neuronav.activations import ACTIVATIONS
+from neuronav.activations import ACTIVATIONS, logistic_of_negated
 from neuronav.encoders import get_encoder
 from neuronav.errors import CircuitError, PortError
 
@@ -173,10 +173,16 @@ class CompiledCircuit:
                     (source, edge["weights"]))
             reads = self._reads(now, pop.size, False) + self._reads(prev, pop.size, True)
             self._needs_snapshot |= bool(prev)
+            activation, params, bias = ACTIVATIONS[pop.activation], dict(pop.params), float(pop.bias)
+            if pop.activation == "logistic" and pop.kind != "integrator":
+                # σ(a(W x + b) − c) = 1 / (1 + exp(−a W x − a b + c)): scale the weights by −a once.
+                slope, offset = params.get("slope", 1.0), params.get("bias", 0.0)
+                reads = [(snap, span, weights * -slope, diagonal) for snap, span, weights, diagonal in reads]
+                activation, params, bias = logistic_of_negated, {}, -slope * bias + offset
             self._updates.append(_Update(
                 name=name, kind=pop.kind, cells=self.cells[name], reads=reads,
-                bias=float(pop.bias), activation=ACTIVATIONS[pop.activation],
-                activation_params=dict(pop.params), noise_columns=self._noise_columns.get(name),
+                bias=bias, activation=activation,
+                activation_params=params, noise_columns=self._noise_columns.get(name),
                 clip=pop.clip, leak_fraction=(dt_s / pop.tau_s) if pop.kind == "leaky" else 0.0,
                 gain=float(pop.gain), leak=float(pop.leak), drive_clip=pop.drive_clip,
                 memory_clip=pop.memory_clip,
