@@ -7,15 +7,19 @@ Two motion models (chosen by :class:`neuronav.world.PointAgents`):
   ``position += velocity``. Commands: ``rotation`` (rad/step), ``acceleration`` (units/step²).
 - ``unicycle`` — driven by the locomotion command (``turn`` in [-1, 1], ``stride`` = hip swing S_l in
   rad) through a calibration table of (turn, stride) -> (forward speed m/s, turn rate rad/s),
-  interpolated bilinearly. Timestep 8 ms (the paper's control step).
+  interpolated bilinearly: the one measured on MuJoCo (``backends/data/unicycle_mujoco.json``,
+  made by ``python -m scenarios.calibrate_unicycle``) when present, else a geometric one.
+  Timestep 8 ms (the paper's control step).
 
 Heading is clockwise from +y, so an agent at heading h moves along (sin h, cos h).
 """
 
 from __future__ import annotations
 
+import json
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
@@ -72,6 +76,32 @@ def geometric_calibration(hip_reach_m: float = 0.55, cycle_s: float = 0.64,
     return UnicycleCalibration(turn, stride, speed, turn_rate, source="geometric (not measured)")
 
 
+DATA_DIR = Path(__file__).resolve().parent / "data"
+
+
+def load_calibration(path: Path) -> UnicycleCalibration:
+    """A calibration table written by ``python -m scenarios.calibrate_unicycle``."""
+    try:
+        table = json.loads(Path(path).read_text())
+        calibration = UnicycleCalibration(
+            turn=np.array(table["turn"], float), stride_rad=np.array(table["stride_rad"], float),
+            speed_m_s=np.array(table["speed_m_s"], float), turn_rate_rad_s=np.array(table["turn_rate_rad_s"], float),
+            source=str(table["source"]),
+        )
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise ConfigError(f"unicycle calibration {path}: cannot be read ({error})") from None
+    expected = (calibration.turn.size, calibration.stride_rad.size)
+    if calibration.speed_m_s.shape != expected or calibration.turn_rate_rad_s.shape != expected:
+        raise ConfigError(f"unicycle calibration {path}: tables must have shape {expected}")
+    return calibration
+
+
+def default_calibration() -> UnicycleCalibration:
+    """The table measured on MuJoCo when it ships with the package, else the geometric one."""
+    measured = DATA_DIR / "unicycle_mujoco.json"
+    return load_calibration(measured) if measured.exists() else geometric_calibration()
+
+
 class KinematicBackend(BackendBase):
     """Batched point agents; implements the backend protocol (see DESIGN.md)."""
 
@@ -94,7 +124,7 @@ class KinematicBackend(BackendBase):
     )
 
     def __init__(self, calibration: UnicycleCalibration | None = None) -> None:
-        self.calibration = calibration or geometric_calibration()
+        self.calibration = calibration or default_calibration()
         self._agents: PointAgents | None = None
         self._time_s = 0.0
 

@@ -1,0 +1,95 @@
+"""Benchmark: the locomotion loop (gait + body on a physics engine) against raw engine steps.
+
+For each installed physics backend and each gait, on flat ground without rendering, on one core:
+
+- loop throughput: physics steps per second of the full loop (gait sample every control step,
+  write joint targets, step the engine with the control law, read the sensors the locomotion
+  scenario reads), and its real-time factor (simulated seconds per wall second);
+- raw throughput: the engine's own step on the same compiled model, no control, no reads
+  (``raw_step``: ``mj_step`` for MuJoCo, ``stepSimulation`` for PyBullet);
+- the ratio loop / raw.
+
+Targets (issue 3): MuJoCo real-time factor >= 20x, loop throughput >= 0.5x raw ``mj_step``.
+
+Usage::
+
+    python benchmarks/locomotion_speed.py [--seconds 2.0] [--backends mujoco,pybullet] [--gaits tripod,ripple,wave,ik]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _variable in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_variable] = "1"
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import argparse  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from bodies.desert_ant import desert_ant  # noqa: E402
+from bodies.gaits import make_gait  # noqa: E402
+from neuronav import registry  # noqa: E402
+from neuronav.world import World  # noqa: E402
+
+TIMESTEP_S = 0.002
+PHYSICS_PER_CONTROL = 4
+SENSORS = ("joint_pos", "joint_vel", "joint_torque", "contact_force", "body_pos", "body_quat", "heading")
+
+
+def loop_rate(backend_name: str, gait_name: str, seconds: float) -> tuple[float, float, float]:
+    """(physics steps per second of the loop, forward speed m/s, raw steps per second)."""
+    body = desert_ant()
+    gait = make_gait(gait_name, body)
+    controls = int(round(seconds / (TIMESTEP_S * PHYSICS_PER_CONTROL)))
+    with registry.load("backend", backend_name)(timestep_s=TIMESTEP_S) as engine:
+        engine.load(World(), [body])
+        engine.reset(0)
+        gait.reset()
+        start_x = engine.read(["body_pos"])["body_pos"][0, 0]
+        started = time.perf_counter()
+        for _ in range(controls):
+            engine.write({"joint_targets": gait.step(0.0, np.radians(15))[None, :]})
+            engine.step(PHYSICS_PER_CONTROL)
+            engine.read(SENSORS)
+        loop_s = time.perf_counter() - started
+        speed = (engine.read(["body_pos"])["body_pos"][0, 0] - start_x) / seconds
+        engine.reset(0)
+        raw_steps = controls * PHYSICS_PER_CONTROL
+        started = time.perf_counter()
+        engine.raw_step(raw_steps)
+        raw_s = time.perf_counter() - started
+    return controls * PHYSICS_PER_CONTROL / loop_s, float(speed), raw_steps / raw_s
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=2.0, help="simulated seconds per measurement")
+    parser.add_argument("--backends", default="mujoco,pybullet")
+    parser.add_argument("--gaits", default="tripod,ripple,wave,ik")
+    args = parser.parse_args(argv)
+    print(f"locomotion loop on flat ground, {args.seconds:g} s simulated, physics {1000 * TIMESTEP_S:g} ms, "
+          f"gait every {PHYSICS_PER_CONTROL} steps, one core")
+    print(f"{'backend':<10} {'gait':<8} {'loop steps/s':>13} {'real-time x':>12} {'raw steps/s':>12} "
+          f"{'loop/raw':>9} {'speed m/s':>10}")
+    for backend in args.backends.split(","):
+        ok, reason = registry.availability("backend", backend)
+        if not ok:
+            print(f"{backend:<10} not available: {reason}")
+            continue
+        for gait in args.gaits.split(","):
+            rate, speed, raw = loop_rate(backend, gait, args.seconds)
+            print(f"{backend:<10} {gait:<8} {rate:>13.0f} {rate * TIMESTEP_S:>11.1f}x {raw:>12.0f} "
+                  f"{rate / raw:>9.2f} {speed:>10.3f}")
+    print("targets: MuJoCo real-time factor >= 20x; loop throughput >= 0.5x raw mj_step")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
