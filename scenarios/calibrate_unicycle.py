@@ -37,7 +37,7 @@ def measure(backend: str, duration_s: float, seed: int = 0) -> dict:
             if stride == 0.0:
                 continue  # no swing, no motion
             config = replace(base, turn=float(turn), stride_deg=float(stride))
-            metrics, _ = run_trial(config, backend, seed, physics_per_control=4)
+            metrics, _ = run_trial(config, backend, seed)
             speed[i, j] = metrics["forward_speed_m_s"]
             # The kinematic backend's heading is clockwise: its turn rate is minus the yaw rate.
             rate[i, j] = -metrics["turn_rate_rad_s"]

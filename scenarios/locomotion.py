@@ -29,7 +29,7 @@ from bodies.desert_ant import LEGS, desert_ant
 from bodies.gaits import make_gait
 from neuronav import registry
 from neuronav.config import field
-from neuronav.errors import ConfigError
+from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.world import Ground, World
 
@@ -78,14 +78,10 @@ class Locomotion(Scenario):
 
     def run(self, config: LocomotionConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
-        physics_per_control = config.control_dt_s / config.timestep_s
-        if abs(physics_per_control - round(physics_per_control)) > 1e-9:
-            raise ConfigError(f"control_dt_s ({config.control_dt_s}) must be an integer multiple of timestep_s "
-                              f"({config.timestep_s})")
+        integer_ratio(config.control_dt_s, config.timestep_s, "control_dt_s / timestep_s")
         rows, series = [], []
         for i in range(trials):
-            row, recorded = run_trial(config, backend, seed + i, int(round(physics_per_control)),
-                                      video_path if i == 0 else None)
+            row, recorded = run_trial(config, backend, seed + i, video_path if i == 0 else None)
             rows.append(dict(row, trial=i, seed=seed + i))
             series.append(recorded)
         timeseries = {key: np.stack([s[key] for s in series]) for key in series[0]}
@@ -103,64 +99,70 @@ def build_world(config: LocomotionConfig, seed: int) -> World:
     return World(ground=ground, adhesion_n=config.adhesion_n)
 
 
-def run_trial(config: LocomotionConfig, backend_name: str, seed: int, physics_per_control: int,
+class LocomotionRecorder(Hook):
+    """Records what the locomotion metrics and figures need, once per control step."""
+
+    def __init__(self, body, steps: int, control_dt_s: float, video: bool) -> None:
+        names = list(body.joint_names)
+        self.middle_right = [names.index(f"{MIDDLE_RIGHT}_{j}") for j in ("ThCz", "CTr", "FTi")]
+        contact_sites = [s.name for s in body.sites_of_kind("contact")]
+        self.claws = [i for i, n in enumerate(contact_sites) if n.split("_")[0] in LEGS]
+        self.control_dt_s, self.video = control_dt_s, video
+        self.work_j = self.torque_sum = 0.0
+        self.frames: list[np.ndarray] = []
+        self.record = {
+            "position_m": np.zeros((steps + 1, 3)), "heading_rad": np.zeros(steps + 1),
+            "roll_rad": np.zeros(steps + 1), "pitch_rad": np.zeros(steps + 1),
+            "mr_angles_rad": np.zeros((steps, 3)), "mr_torques_nm": np.zeros((steps, 3)),
+            "claw_force_n": np.zeros((steps, len(self.claws))),
+        }
+
+    def initialize_episode(self, loop: AgentLoop) -> None:
+        self._pose(loop, 0)
+
+    def after_step(self, loop: AgentLoop) -> None:
+        t = loop.control_steps - 1
+        sensed = loop.backend.read(("joint_pos", "joint_vel", "joint_torque", "contact_force"))
+        torque, velocity = sensed["joint_torque"][0], sensed["joint_vel"][0]
+        self.work_j += float(np.abs(torque * velocity).sum()) * self.control_dt_s
+        self.torque_sum += float(np.abs(torque).mean())
+        self.record["mr_angles_rad"][t] = sensed["joint_pos"][0, self.middle_right]
+        self.record["mr_torques_nm"][t] = torque[self.middle_right]
+        self.record["claw_force_n"][t] = np.linalg.norm(sensed["contact_force"][0, self.claws], axis=1)
+        self._pose(loop, t + 1)
+        if self.video and t % 4 == 0:  # 31 frames per second of 8 ms steps
+            self.frames.append(loop.backend.render("follow"))
+
+    def _pose(self, loop: AgentLoop, index: int) -> None:
+        sensed = loop.backend.read(("body_pos", "body_quat", "heading"))
+        self.record["position_m"][index] = sensed["body_pos"][0]
+        self.record["heading_rad"][index] = sensed["heading"][0, 0]
+        self.record["roll_rad"][index], self.record["pitch_rad"][index] = roll_pitch_rad(sensed["body_quat"][0])
+
+
+def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
               video_path: Path | None = None) -> tuple[dict, dict[str, np.ndarray]]:
     """Walk one trial; return its metrics and recorded signals (one sample per control step)."""
     rng = np.random.default_rng(seed)
     body = desert_ant(leg_length_factors=config.leg_scale)
-    gait = make_gait(config.gait, body)
-    joint_names = list(body.joint_names)
-    mr = [joint_names.index(f"{MIDDLE_RIGHT}_{j}") for j in ("ThCz", "CTr", "FTi")]
-    contact_sites = [s.name for s in body.sites_of_kind("contact")]
-    claws = [contact_sites.index(n) for n in contact_sites if n.split("_")[0] in LEGS]
     steps = int(round(config.duration_s / config.control_dt_s))
-    stride_rad = np.radians(config.stride_deg)
+    clocks = Clocks(physics_dt_s=config.timestep_s, control_dt_s=config.control_dt_s,
+                    brain_dt_s=config.control_dt_s)
+    recorder = LocomotionRecorder(body, steps, config.control_dt_s, video=video_path is not None)
     yaw0 = float(rng.uniform(-config.initial_yaw_jitter_rad, config.initial_yaw_jitter_rad))
-
-    record = {
-        "position_m": np.zeros((steps + 1, 3)), "heading_rad": np.zeros(steps + 1),
-        "roll_rad": np.zeros(steps + 1), "pitch_rad": np.zeros(steps + 1),
-        "mr_angles_rad": np.zeros((steps, 3)), "mr_torques_nm": np.zeros((steps, 3)),
-        "claw_force_n": np.zeros((steps, len(claws))),
-    }
-    work_j, torque_sum, gait_s = 0.0, 0.0, 0.0
-    frames = []
-    engine = registry.load("backend", backend_name)(timestep_s=config.timestep_s)
-    with engine:
+    with registry.load("backend", backend_name)(timestep_s=config.timestep_s) as engine:
         engine.load(build_world(config, seed), [body])
-        engine.reset(seed, position_m=(0.0, 0.0), yaw_rad=yaw0)
-        gait.reset()
-        _pose(engine, record, 0)
+        loop = AgentLoop(engine, make_gait(config.gait, body), clocks, hooks=[recorder],
+                         turn=config.turn, stride_rad=np.radians(config.stride_deg))
+        loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=yaw0)
         started = time.perf_counter()
-        for t in range(steps):
-            tic = time.perf_counter()
-            targets = gait.step(config.turn, stride_rad)
-            gait_s += time.perf_counter() - tic
-            engine.write({"joint_targets": targets[None, :]})
-            engine.step(physics_per_control)
-            sensed = engine.read(("joint_pos", "joint_vel", "joint_torque", "contact_force"))
-            torque, velocity = sensed["joint_torque"][0], sensed["joint_vel"][0]
-            work_j += float(np.abs(torque * velocity).sum()) * config.control_dt_s
-            torque_sum += float(np.abs(torque).mean())
-            record["mr_angles_rad"][t] = sensed["joint_pos"][0, mr]
-            record["mr_torques_nm"][t] = torque[mr]
-            record["claw_force_n"][t] = np.linalg.norm(sensed["contact_force"][0, claws], axis=1)
-            _pose(engine, record, t + 1)
-            if video_path is not None and t % 4 == 0:  # 31 frames per second of 8 ms steps
-                frames.append(engine.render("follow"))
+        loop.run(config.duration_s)
         wall_s = time.perf_counter() - started
     if video_path is not None:
-        write_video(video_path, frames, fps=1.0 / (4 * config.control_dt_s))
-    return trial_metrics(record, config, body.total_mass_kg, work_j, torque_sum / max(steps, 1),
-                         gait_s / max(steps, 1), wall_s), record
-
-
-def _pose(engine, record: dict, index: int) -> None:
-    sensed = engine.read(("body_pos", "body_quat", "heading"))
-    record["position_m"][index] = sensed["body_pos"][0]
-    record["heading_rad"][index] = sensed["heading"][0, 0]
-    roll, pitch = roll_pitch_rad(sensed["body_quat"][0])
-    record["roll_rad"][index], record["pitch_rad"][index] = roll, pitch
+        write_video(video_path, recorder.frames, fps=1.0 / (4 * config.control_dt_s))
+    metrics = trial_metrics(recorder.record, config, body.total_mass_kg, recorder.work_j,
+                            recorder.torque_sum / max(steps, 1), loop.gait_time_s / max(steps, 1), wall_s)
+    return metrics, recorder.record
 
 
 def roll_pitch_rad(quat: np.ndarray) -> tuple[float, float]:

@@ -1,0 +1,81 @@
+"""The agent loop's clocks and hooks, on a stub backend and gait that count what happens."""
+
+import numpy as np
+import pytest
+
+from neuronav.errors import ConfigError
+from neuronav.loop import AgentLoop, Clocks, Hook
+
+
+class CountingBackend:
+    def __init__(self):
+        self.physics_steps, self.writes, self.resets = 0, [], []
+
+    def reset(self, **kwargs):
+        self.resets.append(kwargs)
+
+    def write(self, commands):
+        self.writes.append(commands["joint_targets"].copy())
+
+    def step(self, n=1):
+        self.physics_steps += n
+
+
+class EchoGait:
+    """Targets = (turn, stride), so the test sees which command reached the gait."""
+
+    joint_names = ("a", "b")
+
+    def reset(self):
+        self.samples = 0
+
+    def step(self, turn, stride_rad):
+        self.samples += 1
+        return np.array([turn, stride_rad])
+
+
+class Log(Hook):
+    def __init__(self):
+        self.events = []
+
+    def initialize_episode(self, loop):
+        self.events.append(("init", loop.control_steps))
+
+    def before_step(self, loop):
+        self.events.append(("before", loop.control_steps))
+
+    def after_step(self, loop):
+        self.events.append(("after", loop.control_steps))
+
+
+def test_clocks_run_at_integer_ratios_and_the_brain_sets_the_command():
+    backend, gait, log = CountingBackend(), EchoGait(), Log()
+    brain_calls = []
+
+    def steering(loop):
+        brain_calls.append(loop.control_steps)
+        return 0.5 * len(brain_calls), 0.1  # turn clipped to 1 from the second call on
+
+    clocks = Clocks(physics_dt_s=0.002, control_dt_s=0.008, brain_dt_s=0.032)
+    loop = AgentLoop(backend, gait, clocks, steering=steering, hooks=[log])
+    loop.reset(seed=3)
+    loop.run(0.08)  # 10 control steps
+    assert backend.resets == [{"seed": 3}]
+    assert loop.control_steps == 10 and gait.samples == 10 and backend.physics_steps == 40
+    assert brain_calls == [0, 4, 8]
+    assert [w[0, 0] for w in backend.writes] == [0.5] * 4 + [1.0] * 6
+    assert log.events[:3] == [("init", 0), ("before", 0), ("after", 1)]
+    assert loop.time_s == pytest.approx(0.08)
+
+
+def test_run_stops_early_when_asked():
+    loop = AgentLoop(CountingBackend(), EchoGait(), Clocks())
+    loop.reset()
+    loop.run(1.0, until=lambda lp: lp.control_steps == 3)
+    assert loop.control_steps == 3
+
+
+@pytest.mark.parametrize("periods", [(0.002, 0.007, 0.64), (0.002, 0.008, 0.1), (0.0, 0.008, 0.64)])
+def test_non_integer_clock_ratios_are_refused(periods):
+    with pytest.raises(ConfigError, match="multiple|positive"):
+        Clocks(*periods)
