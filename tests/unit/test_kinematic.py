@@ -86,3 +86,27 @@ def test_apply_force_pushes_one_agent():
     backend.step()
     position = backend.read(["position"])["position"]
     np.testing.assert_allclose(position, [[0, 0], [2.0, 0]])
+
+
+def test_measured_calibration_round_trip_and_bad_files(tmp_path):
+    import json
+
+    from backends.kinematic import load_calibration
+
+    table = {"source": "test", "turn": [-1, 0, 1], "stride_rad": [0.0, 0.5],
+             "speed_m_s": [[0, 0.1], [0, 0.4], [0, 0.1]], "turn_rate_rad_s": [[0, 1], [0, 0], [0, -1]]}
+    path = tmp_path / "table.json"
+    path.write_text(json.dumps(table))
+    backend = KinematicBackend(calibration=load_calibration(path))
+    backend.load(World(), [PointAgents(count=1, mode="unicycle")])
+    backend.write({"turn": np.zeros(1), "stride": np.full(1, 0.25)})
+    backend.step(125)
+    # Halfway between strides 0 and 0.5 at turn 0: 0.2 m/s for one second.
+    np.testing.assert_allclose(backend.read(["position"])["position"], [[0.0, 0.2]], atol=1e-9)
+    table["speed_m_s"] = [[0, 1]]
+    path.write_text(json.dumps(table))
+    with pytest.raises(ConfigError, match="tables must have shape"):
+        load_calibration(path)
+    path.write_text("{not json")
+    with pytest.raises(ConfigError, match="cannot be read"):
+        load_calibration(path)
