@@ -1,21 +1,20 @@
 """The ``neuronav`` command line: list, run, compare, sweep.
 
-Bad input (unknown scenario, backend not installed, bad ``--set`` key or value) prints one line to
-stderr and exits 2.
+Bad input (unknown scenario, backend not installed, bad ``--set`` key or value, a bad ``--config``
+file, a run directory holding other settings) prints one line to stderr and exits 2. ``run`` and
+``sweep`` are resumable: rerunning the same command skips the trials already finished.
 """
 
 from __future__ import annotations
 
 import argparse
-import itertools
-import json
 import sys
 from pathlib import Path
 
 from neuronav import registry
 from neuronav.config import describe
 from neuronav.errors import ConfigError, NeuronavError
-from neuronav.rundir import trials_csv, write_atomic
+from neuronav.rundir import write_atomic
 from neuronav.runner import load_scenario, run_scenario
 
 
@@ -37,13 +36,25 @@ def _parser() -> argparse.ArgumentParser:
         p.add_argument("--trials", type=int, default=1, help="seeded trials (trial i uses seed S + i)")
         p.add_argument("--seed", type=int, default=0)
         p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                       help="override a scenario setting (repeatable)")
+                       help="override a scenario setting (repeatable; wins over --config)")
+        p.add_argument("--config", type=Path, metavar="FILE.toml",
+                       help="scenario settings from a TOML file (key = value, the keys of --set)")
         p.add_argument("--out", type=Path, help="run directory")
+
+    def parallel(p: argparse.ArgumentParser, workers_help: str) -> None:
+        p.add_argument("--workers", type=int, help=workers_help)
+        p.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run the trials on this Dask cluster")
+        p.add_argument("--chunk-size", type=int, metavar="N",
+                       help="trials per task (default: a few tasks per worker)")
+        p.add_argument("--no-progress", dest="progress", action="store_const", const=False, default=None,
+                       help="no progress bar (it is drawn only on a terminal anyway)")
+        p.add_argument("--no-figures", dest="figures", action="store_false", help="skip the figures")
 
     run = commands.add_parser("run", help="run a scenario and write its run directory")
     common(run)
     run.add_argument("--backend")
     run.add_argument("--video", action="store_true", help="write an MP4 of the first trial")
+    parallel(run, "local worker processes (default 1: all trials in one batch, here)")
 
     compare = commands.add_parser("compare", help="run one scenario on several backends side by side")
     common(compare)
@@ -54,11 +65,17 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--backend")
     sweep.add_argument("--grid", action="append", required=True, metavar="KEY=V1,V2",
                        help="a setting and its values (repeatable; the grid is their product)")
+    parallel(sweep, "local worker processes (default: the available CPUs)")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
+    """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit status.
+
+    0: done. 2: bad input, printed as one line on stderr (argparse's own usage errors exit 2 through
+    SystemExit). 130: interrupted (finished trials are kept; rerun the command to resume).
+    """
+    argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
     try:
         if args.command == "list":
@@ -66,15 +83,30 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "run":
             summary = run_scenario(args.scenario, backend=args.backend, trials=args.trials, seed=args.seed,
                                    overrides=args.overrides, out_dir=args.out, video=args.video,
-                                   command=["neuronav", *argv])
+                                   command=["neuronav", *argv], config_file=args.config,
+                                   workers=1 if args.workers is None and args.scheduler is None else args.workers,
+                                   scheduler=args.scheduler, chunk_size=args.chunk_size,
+                                   progress=args.progress, figures=args.figures)
             _print_summary(summary)
             return 0
         if args.command == "compare":
             return _compare(args, argv)
         return _sweep(args, argv)
     except NeuronavError as error:
-        sys.stderr.write(f"neuronav: error: {error}\n")
+        sys.stderr.write(f"neuronav: error: {_one_line(error)}\n")
         return 2
+    except OSError as error:  # a file system problem (disk full, permissions): one line too
+        where = f" ({error.filename})" if getattr(error, "filename", None) else ""
+        sys.stderr.write(f"neuronav: error: {error.strerror or error}{where}\n")
+        return 2
+    except KeyboardInterrupt:
+        sys.stderr.write("neuronav: interrupted; finished trials are kept — rerun the same command to resume\n")
+        return 130
+
+
+def _one_line(error: BaseException) -> str:
+    text = " ".join(str(error).split())
+    return text or type(error).__name__
 
 
 def _list() -> int:
@@ -102,8 +134,10 @@ def _list() -> int:
 
 def _print_summary(summary: dict) -> None:
     metrics = ", ".join(f"{k}={v:.4g}" for k, v in summary["metrics"].items() if isinstance(v, (int, float)))
+    resumed = summary.get("resumed_trials") or 0
     print(f"{summary['scenario']} on {summary['backend']}: {summary['trials']} trials "
-          f"({summary['failed_trials']} failed) in {summary['wall_time_s']:.2f} s")
+          f"({summary['failed_trials']} failed{f', {resumed} already done' if resumed else ''}) "
+          f"in {summary['wall_time_s']:.2f} s")
     print(f"  {metrics}")
     print(f"  run directory: {summary['out_dir']}")
 
@@ -117,11 +151,13 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     for backend in backends:
         summaries[backend] = run_scenario(args.scenario, backend=backend, trials=args.trials, seed=args.seed,
                                           overrides=args.overrides, out_dir=out / backend,
-                                          command=["neuronav", *argv])
+                                          command=["neuronav", *argv], config_file=args.config)
     metrics = sorted({k for s in summaries.values() for k in s["metrics"]})
     rows = []
     for backend, s in summaries.items():
-        rtf = s["simulated_time_s"] * s["trials"] / s["wall_time_s"] if s["wall_time_s"] > 0 else float("nan")
+        # Compute time summed over the run's chunks: the same whether the run was resumed or not.
+        compute_s = s.get("compute_time_s") or s["wall_time_s"]
+        rtf = s["simulated_time_s"] * s["trials"] / compute_s if compute_s > 0 else float("nan")
         rows.append({"backend": backend, "trials": s["trials"], "failed_trials": s["failed_trials"],
                      "wall_time_s": s["wall_time_s"], "real_time_factor": rtf,
                      **{m: s["metrics"].get(m) for m in metrics}})
@@ -162,33 +198,20 @@ def _compare_figure(rows: list[dict], metrics: list[str], path: Path) -> None:
 
 
 def _sweep(args: argparse.Namespace, argv: list[str]) -> int:
-    grid: dict[str, list[str]] = {}
-    for item in args.grid:
-        if "=" not in item:
-            raise ConfigError(f"--grid expects key=v1,v2,..., got {item!r}")
-        key, values = item.split("=", 1)
-        grid[key.strip()] = [v for v in values.split(",") if v != ""]
-        if not grid[key.strip()]:
-            raise ConfigError(f"--grid {key!r} has no values")
-    out = args.out or Path("runs") / f"sweep-{args.scenario}"
-    keys = list(grid)
-    all_rows, points = [], []
-    for values in itertools.product(*(grid[k] for k in keys)):
-        point = dict(zip(keys, values))
-        name = "_".join(f"{k}={v}" for k, v in point.items())
-        summary = run_scenario(args.scenario, backend=args.backend, trials=args.trials, seed=args.seed,
-                               overrides=[*args.overrides, *(f"{k}={v}" for k, v in point.items())],
-                               out_dir=out / name, command=["neuronav", *argv])
-        points.append({"grid": point, "metrics": summary["metrics"], "dir": name})
-        import csv
-        with open(out / name / "trials.csv") as stream:
-            all_rows += [dict(point, **row) for row in csv.DictReader(stream)]
-        print(f"{name}: " + ", ".join(f"{k}={v:.4g}" for k, v in summary["metrics"].items()
-                                      if isinstance(v, (int, float))))
-    write_atomic(out / "trials.csv", trials_csv(all_rows, extra_columns=tuple(keys)))
-    write_atomic(out / "summary.json", json.dumps({"scenario": args.scenario, "grid": grid,
-                                                   "points": points}, indent=2) + "\n")
-    print(f"sweep: {out}")
+    from neuronav.sweep import run_sweep
+
+    summary = run_sweep(args.scenario, args.grid, backend=args.backend, trials=args.trials, seed=args.seed,
+                        overrides=args.overrides, config_file=args.config, out_dir=args.out,
+                        workers=args.workers, scheduler=args.scheduler, chunk_size=args.chunk_size,
+                        progress=args.progress, figures=args.figures, command=["neuronav", *argv])
+    for point in summary["points"]:
+        metrics = ", ".join(f"{k}={v:.4g}" for k, v in point["metrics"].items() if isinstance(v, (int, float)))
+        failed = f" ({point['failed_trials']} failed)" if point["failed_trials"] else ""
+        print(f"{point['dir']}{failed}: {metrics}")
+    resumed = summary["resumed_trials"]
+    print(f"sweep: {summary['total_trials']} trials over {len(summary['points'])} points "
+          f"({summary['failed_trials']} failed{f', {resumed} already done' if resumed else ''}) "
+          f"in {summary['wall_time_s']:.2f} s: {summary['out_dir']}")
     return 0
 
 

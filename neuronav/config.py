@@ -1,15 +1,19 @@
 """Scenario configurations: dataclasses whose fields carry their type, range and choices.
 
 A field's ``metadata`` may hold ``help`` (a short description), ``min``/``max`` (inclusive bounds),
-``min_exclusive`` and ``choices``. :func:`apply_overrides` turns ``key=value`` strings (the CLI's
-``--set``) into a validated config; :func:`validate` checks one built in Python.
+``min_exclusive``, ``max_exclusive`` and ``choices``. :func:`apply_overrides` turns ``key=value``
+strings (the CLI's ``--set``) into a validated config; :func:`load_config_file` reads the same keys
+from a TOML file (``--config``); :func:`build_config` layers defaults, a file, ``--set`` and a grid
+point; :func:`validate` checks a config built in Python.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterable
+import tomllib
+from collections.abc import Iterable, Mapping
+from pathlib import Path
 from typing import Any
 
 from neuronav.errors import ConfigError
@@ -23,6 +27,24 @@ def field(default: Any, help: str = "", **limits: Any) -> Any:
     return dataclasses.field(default=default, metadata=dict(limits, help=help))
 
 
+_ANNOTATIONS = {"bool": bool, "int": int, "float": float, "str": str}
+
+
+def field_kind(f: dataclasses.Field) -> type:
+    """The value type of a config field: its default's type, or its annotation when it has no default."""
+    if f.default is not dataclasses.MISSING:
+        return type(f.default)
+    if isinstance(f.type, type):
+        return f.type
+    return _ANNOTATIONS.get(str(f.type), object)
+
+
+def _fields(config_type: type) -> dict[str, dataclasses.Field]:
+    if not (isinstance(config_type, type) and dataclasses.is_dataclass(config_type)):
+        raise ConfigError(f"a scenario config type must be a dataclass, got {config_type!r}")
+    return {f.name: f for f in dataclasses.fields(config_type)}
+
+
 def _type_name(kind: type) -> str:
     return {bool: "a boolean (true/false)", int: "an integer", float: "a number", str: "a string"}.get(
         kind, kind.__name__)
@@ -30,12 +52,14 @@ def _type_name(kind: type) -> str:
 
 def parse_value(config_type: type, key: str, text: str) -> Any:
     """Convert the string ``text`` to the type of field ``key``, or raise :class:`ConfigError`."""
-    fields = {f.name: f for f in dataclasses.fields(config_type)}
+    fields = _fields(config_type)
     if key not in fields:
         raise ConfigError(
             f"unknown key {key!r}; allowed: {', '.join(sorted(fields))}"
         )
-    kind = type(fields[key].default)
+    kind = field_kind(fields[key])
+    if not isinstance(text, str):
+        raise ConfigError(f"key {key!r}: expected text to parse, got {text!r}")
     cleaned = text.strip()
     try:
         if kind is bool:
@@ -58,9 +82,11 @@ def parse_value(config_type: type, key: str, text: str) -> Any:
 
 def validate(config: Any) -> Any:
     """Check every field's type, range and choices; return the config or raise :class:`ConfigError`."""
+    if not dataclasses.is_dataclass(config) or isinstance(config, type):
+        raise ConfigError(f"a scenario config must be a dataclass instance, got {config!r}")
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
-        kind = type(f.default)
+        kind = field_kind(f)
         ok_type = isinstance(value, kind) and not (kind is not bool and isinstance(value, bool))
         if kind is float and isinstance(value, int) and not isinstance(value, bool):
             ok_type = True
@@ -84,25 +110,103 @@ def validate(config: Any) -> Any:
 
 def split_assignment(text: str) -> tuple[str, str]:
     """``"key=value"`` -> ``("key", "value")``, or a :class:`ConfigError`."""
-    if "=" not in text:
+    if not isinstance(text, str) or "=" not in text:
         raise ConfigError(f"--set expects key=value, got {text!r}")
     key, value = text.split("=", 1)
     return key.strip(), value
 
 
-def apply_overrides(config_type: type, assignments: Iterable[str] | dict[str, Any] = ()) -> Any:
-    """A validated ``config_type`` from its defaults and ``key=value`` overrides (strings or a dict)."""
+def parse_overrides(config_type: type, assignments: Iterable[str] | Mapping[str, Any] = ()) -> dict[str, Any]:
+    """Typed values of ``key=value`` strings (or of a mapping, whose string values are parsed).
+
+    Keys are checked against the config's fields; values are checked when the config is built.
+    """
+    fields = _fields(config_type)
+    if isinstance(assignments, str):
+        assignments = [assignments]
+    if isinstance(assignments, Mapping):
+        items = list(assignments.items())
+    else:
+        try:
+            items = [split_assignment(text) for text in assignments]
+        except TypeError:
+            raise ConfigError(f"overrides must be key=value strings or a dict, got {assignments!r}") from None
     values: dict[str, Any] = {}
-    items = assignments.items() if isinstance(assignments, dict) else map(split_assignment, assignments)
     for key, raw in items:
+        if key not in fields:
+            raise ConfigError(f"unknown key {key!r}; allowed: {', '.join(sorted(fields))}")
         values[key] = parse_value(config_type, key, raw) if isinstance(raw, str) else raw
-    unknown = set(values) - {f.name for f in dataclasses.fields(config_type)}
-    if unknown:
-        allowed = ", ".join(sorted(f.name for f in dataclasses.fields(config_type)))
-        raise ConfigError(f"unknown key {sorted(unknown)[0]!r}; allowed: {allowed}")
-    return validate(config_type(**values))
+    return values
+
+
+def build_config(config_type: type, *layers: Mapping[str, Any] | Iterable[str]) -> Any:
+    """A validated ``config_type``: its defaults, then each layer of overrides in turn (later wins).
+
+    A layer is a mapping of typed values (e.g. from :func:`load_config_file`) or ``key=value``
+    strings (``--set``). A float field given an integer stores it as a float.
+    """
+    fields = _fields(config_type)
+    values: dict[str, Any] = {}
+    for layer in layers:
+        values.update(parse_overrides(config_type, layer))
+    for key, value in values.items():
+        if field_kind(fields[key]) is float and isinstance(value, int) and not isinstance(value, bool):
+            values[key] = float(value)
+    missing = [name for name, f in fields.items() if name not in values and f.default is dataclasses.MISSING
+               and f.default_factory is dataclasses.MISSING]
+    if missing:
+        raise ConfigError(f"key {missing[0]!r} has no default and must be set")
+    try:
+        config = config_type(**values)
+    except (TypeError, ValueError) as error:
+        raise ConfigError(f"{config_type.__name__}: {error}") from None
+    return validate(config)
+
+
+def apply_overrides(config_type: type, assignments: Iterable[str] | Mapping[str, Any] = ()) -> Any:
+    """A validated ``config_type`` from its defaults and ``key=value`` overrides (strings or a dict)."""
+    return build_config(config_type, assignments)
+
+
+def load_config_file(config_type: type, path: str | Path) -> dict[str, Any]:
+    """The settings in a TOML file, checked against ``config_type``: ``{key: typed value}``.
+
+    The file holds ``key = value`` pairs with the keys of ``--set`` (``neuronav list`` shows them),
+    e.g. ``noise = 0.2`` or ``dtype = "float64"``. Unknown keys, values of the wrong type and values
+    out of range raise :class:`ConfigError` naming the key and what is allowed.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"config file {str(path)!r} does not exist") from None
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise ConfigError(f"config file {str(path)!r} cannot be read: {_reason(error)}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise ConfigError(f"config file {str(path)!r} is not valid TOML: {_reason(error)}") from None
+    fields = _fields(config_type)
+    allowed = ", ".join(sorted(fields))
+    for key, value in data.items():
+        if key not in fields:
+            raise ConfigError(f"config file {str(path)!r}: unknown key {key!r}; allowed: {allowed}")
+        kind = field_kind(fields[key])
+        # TOML values are typed: a number written as a string is a wrong type, as is a table or array.
+        if isinstance(value, (dict, list)) or (isinstance(value, str) and kind is not str):
+            raise ConfigError(f"config file {str(path)!r}: key {key!r} expects {_type_name(kind)}, got {value!r}")
+    try:
+        build_config(config_type, data)  # type and range checks, naming the key
+    except ConfigError as error:
+        raise ConfigError(f"config file {str(path)!r}: {error}") from None
+    return dict(data)
+
+
+def _reason(error: BaseException) -> str:
+    text = str(error).splitlines()
+    return text[0] if text else type(error).__name__
 
 
 def describe(config_type: type) -> list[tuple[str, Any, str]]:
     """(key, default, help) for every field, for ``neuronav list`` and documentation."""
-    return [(f.name, f.default, f.metadata.get("help", "")) for f in dataclasses.fields(config_type)]
+    return [(f.name, f.default, f.metadata.get("help", "")) for f in _fields(config_type).values()]

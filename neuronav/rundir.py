@@ -2,6 +2,14 @@
 
 Every file is written to a temporary name in the same directory and renamed into place, so a
 reader (or a resumed run) never sees half a file.
+
+A run or sweep also keeps (see :mod:`neuronav.sweep`):
+
+- ``settings.json`` — what the directory holds (scenario, backend, seed, trials, config, grid),
+  written before the first trial runs; a rerun with other settings is refused.
+- ``parts/[POINT/]trials-FIRST-LAST.npz`` — one file per finished chunk of trials: its rows, time
+  series and aggregates. The results above are assembled from the parts.
+- ``.neuronav.lock`` — held (``flock``) while a process works in the directory.
 """
 
 from __future__ import annotations
@@ -12,6 +20,7 @@ import json
 import math
 import os
 import platform
+import re
 import subprocess
 import sys
 import tempfile
@@ -20,6 +29,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from neuronav.errors import ConfigError
 
 FIXED_COLUMNS = ("trial", "seed", "success", "status", "error")
 VERSIONED_PACKAGES = ("neuronav", "numpy", "scipy", "networkx", "matplotlib", "h5py", "mujoco",
@@ -35,6 +46,8 @@ def write_atomic(path: Path, data: bytes | str) -> None:
     try:
         with os.fdopen(handle, mode) as stream:
             stream.write(data)
+            stream.flush()
+            os.fsync(stream.fileno())
         os.replace(temporary, path)
     except BaseException:
         if os.path.exists(temporary):
@@ -127,8 +140,12 @@ def write_run_directory(
     out_dir: Path, *, scenario: str, backend: str, seed: int, config: dict, trials: list[dict],
     aggregates: dict[str, float], timeseries: dict[str, np.ndarray], wall_time_s: float,
     simulated_time_s: float, figures: list[Path], command: list[str] | None = None,
+    extra: dict[str, Any] | None = None,
 ) -> dict:
-    """Write summary.json, trials.csv and timeseries.h5 into ``out_dir``; return the summary."""
+    """Write summary.json, trials.csv and timeseries.h5 into ``out_dir``; return the summary.
+
+    ``extra`` adds fields to the summary (e.g. how a sweep ran: chunks, resumed trials).
+    """
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     means, stds = aggregate(trials)
@@ -149,9 +166,194 @@ def write_run_directory(
         "git_revision": git_revision(),
         "command": command or sys.argv,
         "figures": [Path(f).name for f in figures],
+        **(extra or {}),
     }
     write_atomic(out_dir / "trials.csv", trials_csv(trials))
     if timeseries:
         write_timeseries(out_dir / "timeseries.h5", timeseries)
-    write_atomic(out_dir / "summary.json", json.dumps(summary, indent=2) + "\n")
+    elif (out_dir / "timeseries.h5").exists():
+        os.unlink(out_dir / "timeseries.h5")  # a stale file from an earlier run would mislead
+    write_atomic(out_dir / "summary.json", json.dumps(summary, indent=2, default=json_default) + "\n")
     return summary
+
+
+# -- parts, settings and the lock (resumable runs) ------------------------------------------------------
+
+SETTINGS_FILE = "settings.json"
+PARTS_DIR = "parts"
+LOCK_FILE = ".neuronav.lock"
+SETTINGS_FORMAT = 1
+# The settings a rerun must repeat to resume a directory (the rest is recorded, not compared).
+COMPARED_SETTINGS = ("kind", "scenario", "backend", "seed", "trials", "config", "grid")
+_PART_NAME = re.compile(r"^trials-(\d+)-(\d+)\.npz$")
+_ROWS_KEY, _META_KEY, _SERIES_PREFIX = "__rows__", "__meta__", "ts."
+
+
+def json_default(value: Any) -> Any:
+    """JSON for numpy scalars and arrays, paths and tuples (``json.dumps(..., default=json_default)``)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, (set, frozenset)):
+        return sorted(value)
+    return str(value)
+
+
+def part_name(first: int, count: int) -> str:
+    """File name of the part holding trials ``first .. first + count - 1``."""
+    return f"trials-{first:06d}-{first + count - 1:06d}.npz"
+
+
+def part_range(name: str) -> tuple[int, int] | None:
+    """(first, count) of a part file name, or None when ``name`` is not one."""
+    match = _PART_NAME.match(name)
+    if match is None:
+        return None
+    first, last = int(match.group(1)), int(match.group(2))
+    return (first, last - first + 1) if last >= first else None
+
+
+def write_part(path: Path, rows: list[dict], timeseries: dict[str, np.ndarray], meta: dict) -> None:
+    """Write one finished chunk (rows, time series, meta) as one ``.npz`` file, atomically.
+
+    The rows and meta are stored as JSON text (NaN allowed), the time series as plain arrays
+    (uncompressed: parts are read back once, when the results are assembled).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {_ROWS_KEY: np.array(json.dumps(rows, default=json_default)),
+              _META_KEY: np.array(json.dumps(meta, default=json_default))}
+    for key, value in timeseries.items():
+        array = np.asarray(value)
+        if array.dtype.kind in "biufc":  # numbers only: parts are read without pickle
+            arrays[_SERIES_PREFIX + key] = array
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            np.savez(stream, **arrays)
+            stream.flush()
+            os.fsync(stream.fileno())
+        os.replace(temporary, path)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        raise
+
+
+def read_part(path: Path, timeseries: bool = True) -> tuple[list[dict], dict[str, np.ndarray], dict]:
+    """(rows, time series, meta) of a part file written by :func:`write_part`."""
+    with np.load(path, allow_pickle=False) as store:
+        rows = json.loads(str(store[_ROWS_KEY]))
+        meta = json.loads(str(store[_META_KEY]))
+        series = {name[len(_SERIES_PREFIX):]: store[name] for name in store.files
+                  if timeseries and name.startswith(_SERIES_PREFIX)}
+    return rows, series, meta
+
+
+def list_parts(folder: Path) -> list[tuple[int, int, Path]]:
+    """The readable parts in ``folder`` as (first, count, path), sorted by first trial.
+
+    A part that cannot be read (which atomic writes should make impossible, short of a disk
+    error) is renamed ``*.corrupt`` so that its trials run again.
+    """
+    found = []
+    folder = Path(folder)
+    if not folder.is_dir():
+        return found
+    for path in sorted(folder.iterdir()):
+        span = part_range(path.name)
+        if span is None:
+            continue
+        try:
+            with np.load(path, allow_pickle=False) as store:
+                if _ROWS_KEY not in store.files:
+                    raise ValueError("no rows")
+        except Exception:  # noqa: BLE001 - any unreadable part is set aside and recomputed
+            os.replace(path, path.with_name(path.name + ".corrupt"))
+            continue
+        found.append((*span, path))
+    return sorted(found)
+
+
+def remove_stale_temporaries(folder: Path) -> None:
+    """Delete the temporary files (``.NAME.*.tmp``) a killed writer left in ``folder``."""
+    folder = Path(folder)
+    if folder.is_dir():
+        for path in folder.glob(".*.tmp"):
+            try:
+                path.unlink()
+            except OSError:
+                pass
+
+
+def _normalised(value: Any) -> Any:
+    return json.loads(json.dumps(value, default=json_default))
+
+
+def check_settings(out_dir: Path, settings: dict) -> bool:
+    """Record ``settings`` in ``out_dir/settings.json``, or check they match the recorded ones.
+
+    Returns True when the directory already held these settings (a resumed run). Raises
+    :class:`ConfigError` naming the first difference when it held other ones.
+    """
+    path = Path(out_dir) / SETTINGS_FILE
+    wanted = _normalised({key: settings.get(key) for key in COMPARED_SETTINGS})
+    if path.exists():
+        try:
+            recorded = json.loads(path.read_text())
+        except (OSError, ValueError) as error:
+            raise ConfigError(f"run directory {str(out_dir)!r}: {SETTINGS_FILE} cannot be read ({error}); "
+                              "give another --out or remove that directory") from None
+        have = {key: recorded.get(key) for key in COMPARED_SETTINGS}
+        if have != wanted:
+            where, old, new = _first_difference(have, wanted)
+            raise ConfigError(
+                f"run directory {str(out_dir)!r} holds results with other settings ({where}: {old!r} there, "
+                f"{new!r} now); give another --out, or rerun the command that made it to resume"
+            )
+        return True
+    write_atomic(path, json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2, default=json_default) + "\n")
+    return False
+
+
+def _first_difference(a: Any, b: Any, where: str = "") -> tuple[str, Any, Any]:
+    if isinstance(a, dict) and isinstance(b, dict):
+        for key in [*a, *(k for k in b if k not in a)]:
+            if a.get(key, "<absent>") != b.get(key, "<absent>"):
+                return _first_difference(a.get(key, "<absent>"), b.get(key, "<absent>"),
+                                         f"{where}.{key}" if where else str(key))
+    return where or "settings", a, b
+
+
+class DirectoryLock:
+    """An exclusive ``flock`` on ``out_dir/.neuronav.lock`` while a process works there.
+
+    The kernel releases it when the process ends, however it ends (SIGKILL included).
+    """
+
+    def __init__(self, out_dir: Path) -> None:
+        self.path = Path(out_dir) / LOCK_FILE
+        self._handle = None
+
+    def __enter__(self) -> DirectoryLock:
+        try:
+            import fcntl
+        except ImportError:  # not POSIX: no lock
+            return self
+        self._handle = open(self.path, "a+")
+        try:
+            fcntl.flock(self._handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            self._handle.close()
+            self._handle = None
+            raise ConfigError(f"run directory {str(self.path.parent)!r} is in use by another neuronav process; "
+                              "wait for it or give another --out") from None
+        return self
+
+    def __exit__(self, *exc_info: Any) -> None:
+        if self._handle is not None:
+            self._handle.close()
+            self._handle = None

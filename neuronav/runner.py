@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
-import time
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -12,9 +10,7 @@ import numpy as np
 
 from neuronav import registry
 from neuronav.backend import Capabilities
-from neuronav.config import apply_overrides
-from neuronav.errors import ConfigError
-from neuronav.rundir import write_run_directory
+from neuronav.errors import ConfigError, SimulationError
 from neuronav.scenario import Scenario, ScenarioResult
 
 
@@ -49,35 +45,87 @@ def run_trials(scenario: Scenario, config: Any, backend: str, trials: int, seed:
                video_path: Path | None = None) -> ScenarioResult:
     """Run all trials at once; if that fails, run them one by one so one bad trial loses no other.
 
-    Trial i always uses seed ``seed + i``, so a trial re-run alone gives the same numbers.
+    Trial i always uses seed ``seed + i``, so a trial re-run alone gives the same numbers. A trial
+    that raises on its own is recorded as failed (``status`` "failed", ``error`` the exception's
+    first line); the time series of the others are kept (see :func:`merge_timeseries`).
     """
     try:
         return scenario.run(config, backend=backend, trials=trials, seed=seed, video_path=video_path)
     except Exception as batch_error:  # noqa: BLE001 - a failed batch falls back to single trials
         if trials == 1:
             return ScenarioResult(trials=[_failed(0, seed, batch_error)])
-    results: list[ScenarioResult | None] = []
     rows: list[dict] = []
+    pieces: list[tuple[int, int, dict[str, np.ndarray]]] = []
+    simulated_time_s = 0.0
     for i in range(trials):
         try:
             single = scenario.run(config, backend=backend, trials=1, seed=seed + i,
                                   video_path=video_path if i == 0 else None)
+            if len(single.trials) != 1:
+                raise SimulationError(f"scenario {scenario.name!r} returned {len(single.trials)} rows for 1 trial")
             row = dict(single.trials[0], trial=i)
-            results.append(single)
+            pieces.append((i, 1, single.timeseries))
+            simulated_time_s = single.simulated_time_s
         except Exception as error:  # noqa: BLE001 - recorded as this trial's failure
             row = _failed(i, seed + i, error)
-            results.append(None)
         rows.append(row)
-    finished = [r for r in results if r is not None]
-    timeseries: dict[str, np.ndarray] = {}
-    if finished and len(finished) == trials:
-        for key in finished[0].timeseries:
-            try:
-                timeseries[key] = np.concatenate([r.timeseries[key] for r in finished], axis=0)
-            except (ValueError, KeyError):
-                pass
-    return ScenarioResult(trials=rows, timeseries=timeseries,
-                          simulated_time_s=finished[0].simulated_time_s if finished else 0.0)
+    return ScenarioResult(trials=rows, timeseries=merge_timeseries(pieces, trials),
+                          simulated_time_s=simulated_time_s)
+
+
+def merge_timeseries(pieces: Iterable[tuple[int, int, dict[str, np.ndarray]]], trials: int) -> dict[str, np.ndarray]:
+    """Join the time series of chunks of trials into those of one run of ``trials`` trials.
+
+    Parameters
+    ----------
+    pieces : iterable of (first, count, timeseries)
+        A chunk's first trial, its number of trials and its time series.
+    trials : int
+        Trials of the whole run.
+
+    Returns
+    -------
+    dict of str to ndarray
+        For each name, by the shape of the chunks' arrays:
+
+        - first axis = the chunk's trials (every chunk): one array of shape (trials, ...) in trial
+          order; trials no chunk covered are NaN (0 for integer arrays);
+        - first axis shorter (a scenario records only its first k trials): the rows of the
+          trials covered, from trial 0 up to the first trial missing;
+        - anything else (not per trial): the array of the chunk with the lowest first trial.
+
+        Names whose arrays cannot be joined (different shapes) are left out.
+    """
+    pieces = sorted(pieces, key=lambda piece: piece[0])
+    names: list[str] = []
+    for _, _, series in pieces:
+        names += [name for name in series if name not in names]
+    merged: dict[str, np.ndarray] = {}
+    for name in names:
+        entries = [(first, count, np.asarray(series[name])) for first, count, series in pieces if name in series]
+        try:
+            if all(a.ndim >= 1 and a.shape[0] == count for _, count, a in entries):
+                dtype = np.result_type(*(a.dtype for _, _, a in entries))
+                if dtype.kind not in "fc" and sum(count for _, count, _ in entries) < trials:
+                    fill: Any = 0
+                else:
+                    fill = np.nan if dtype.kind in "fc" else 0
+                out = np.full((trials, *entries[0][2].shape[1:]), fill, dtype)
+                for first, count, array in entries:
+                    out[first:first + count] = array
+                merged[name] = out
+            elif all(a.ndim >= 1 and a.shape[0] <= count for _, count, a in entries):
+                rows = {first + j: array[j] for first, _, array in entries for j in range(array.shape[0])}
+                prefix = 0
+                while prefix in rows:
+                    prefix += 1
+                if prefix:
+                    merged[name] = np.stack([rows[i] for i in range(prefix)])
+            else:
+                merged[name] = entries[0][2]
+        except (ValueError, TypeError):
+            continue  # shapes differ between chunks: not joinable
+    return merged
 
 
 def can_render(backend_class: type) -> bool:
@@ -99,31 +147,20 @@ def _failed(trial: int, seed: int, error: BaseException) -> dict:
 
 
 def run_scenario(
-    name: str, *, backend: str | None = None, trials: int = 1, seed: int = 0,
+    name: str | Scenario, *, backend: str | None = None, trials: int = 1, seed: int = 0,
     overrides: Iterable[str] | dict[str, Any] = (), out_dir: str | Path | None = None,
-    video: bool = False, command: list[str] | None = None,
+    video: bool = False, command: list[str] | None = None, config_file: str | Path | None = None,
+    workers: int | None = 1, scheduler: Any = None, chunk_size: int | None = None,
+    progress: bool | None = None, figures: bool = True,
 ) -> dict:
-    """Run scenario ``name`` and write its run directory; return the summary (also in summary.json)."""
-    scenario = load_scenario(name)
-    backend = check_backend(scenario, backend)
-    check_counts(trials, seed)
-    config = apply_overrides(scenario.config_type, overrides)
-    if video:
-        if not can_render(registry.load("backend", backend)):
-            raise ConfigError(f"--video needs a backend with cameras; {backend!r} has none")
-        if not scenario.records_video:
-            raise ConfigError(f"scenario {name!r} does not record video")
-    out_dir = Path(out_dir) if out_dir is not None else Path("runs") / f"{name}-{backend}-seed{seed}"
-    out_dir.mkdir(parents=True, exist_ok=True)
-    started = time.perf_counter()
-    result = run_trials(scenario, config, backend, int(trials), int(seed),
-                        video_path=out_dir / "trial0.mp4" if video else None)
-    wall_time_s = time.perf_counter() - started
-    out_dir.mkdir(parents=True, exist_ok=True)
-    figures = scenario.figures(result, config, out_dir) if any(
-        t.get("status", "ok") == "ok" for t in result.trials) else []
-    return write_run_directory(
-        out_dir, scenario=name, backend=backend, seed=int(seed), config=dataclasses.asdict(config),
-        trials=result.trials, aggregates=result.aggregates, timeseries=result.timeseries,
-        wall_time_s=wall_time_s, simulated_time_s=result.simulated_time_s, figures=figures, command=command,
-    ) | {"out_dir": str(out_dir)}
+    """Run scenario ``name`` and write its run directory; return the summary (also in summary.json).
+
+    With one worker (the default) all trials run as one batch in this process. More workers, or a
+    Dask ``scheduler``, run chunks of trials in parallel (:mod:`neuronav.sweep`, which also makes the
+    run resumable: rerunning the same command skips the trials already finished).
+    """
+    from neuronav.sweep import execute
+
+    return execute(name, grid=None, backend=backend, trials=trials, seed=seed, overrides=overrides,
+                   config_file=config_file, out_dir=out_dir, workers=workers, scheduler=scheduler,
+                   chunk_size=chunk_size, progress=progress, figures=figures, video=video, command=command)

@@ -53,6 +53,9 @@ class Scenario(ABC):
     backends: tuple[str, ...] = ()
     default_backend: str = ""
     records_video: bool = False
+    # Per-trial metrics that measure the computer, not the simulation (wall times): they are the
+    # only numbers allowed to differ between two runs with the same seed.
+    timing_metrics: tuple[str, ...] = ()
 
     @abstractmethod
     def run(self, config: Any, *, backend: str, trials: int, seed: int,

@@ -72,6 +72,7 @@ class Locomotion(Scenario):
     backends = ("mujoco", "pybullet")
     default_backend = "mujoco"
     records_video = True
+    timing_metrics = ("gait_us_per_step", "real_time_factor")
 
     def smoke_config(self) -> dict:
         return {"duration_s": 0.3}

@@ -69,6 +69,12 @@ def test_a_trial_rerun_alone_gives_the_same_numbers(tmp_path, dtype, tolerance):
     (["run", "path-integration", "--trials", "many"], "argument --trials: invalid int value"),
     (["run", "path-integration", "--video"], "--video needs a backend with cameras"),
     (["sweep", "path-integration", "--grid", "noise"], "--grid expects key=v1,v2"),
+    (["sweep", "path-integration", "--grid", "noise=0.1", "--set", "noise=0.2"], "key 'noise' is in both --grid"),
+    (["sweep", "path-integration", "--grid", "noise=0.1", "--workers", "0"], "workers must be a positive integer"),
+    (["sweep", "path-integration", "--grid", "noise=0.1", "--scheduler", "here"], "--scheduler expects an address"),
+    (["run", "path-integration", "--config", "/no/such/file.toml"], "config file '/no/such/file.toml' does not exist"),
+    (["run", "path-integration", "--chunk-size", "0"], "chunk size must be a positive integer"),
+    (["run", "path-integration", "--out", "/dev/null"], "--out '/dev/null' is a file; give a directory"),
     (["frobnicate"], "invalid choice: 'frobnicate'"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, message):

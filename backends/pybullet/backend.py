@@ -1,0 +1,931 @@
+"""The PyBullet backend: one articulated body (a :class:`~neuronav.body.BodySpec`) in a :class:`World`.
+
+Design
+------
+- One DIRECT-mode physics client per instance; every call passes ``physicsClientId`` (no global
+  state), so several instances live side by side in one process. ``close()`` disconnects.
+- The body is a URDF generated from the spec (:mod:`backends.pybullet.urdf`), written to a
+  temporary directory that ``close()`` removes. Inertia comes from the file
+  (``URDF_USE_INERTIA_FROM_FILE``), i.e. from :meth:`Segment.inertial`, as in every backend.
+- ``reset()`` rebuilds the whole simulation (``resetSimulation``, then body, ground, objects): a
+  reset leaves no contact caches behind, so the same seed gives bit-identical trajectories, also
+  after earlier episodes. The body is created before the world so that PyBullet's contact manifolds
+  list the body first; PyBullet flips the contact normal but not the friction directions when it
+  reports a pair the other way round, so this order keeps the friction forces' signs right.
+- Position control is done here, not by PyBullet's motors: the default velocity motors are
+  switched off (``VELOCITY_CONTROL`` with force 0) and every physics step applies, through
+  ``TORQUE_CONTROL``, ``torque = kp (target - q) - kd q_dot`` clipped to ``±max_torque_nm`` — the
+  same law as the MuJoCo backend. PyBullet integrates these torques (and joint damping)
+  explicitly, which is unstable once ``h λ`` passes 2 (λ: the largest eigenvalue of
+  ``M⁻¹ (kd + damping)``; MuJoCo's implicit integrators do not have this limit). ``load``
+  estimates that margin at the rest pose and, unless ``substeps`` is given, runs as many PyBullet
+  steps of ``timestep / substeps`` per ``timestep`` as keep it below 0.7 (said in
+  :attr:`warnings`). ``step(n)`` always advances ``n * timestep``; control, adhesion and applied
+  forces act at every PyBullet step.
+- PyBullet clamps every velocity coordinate at 100 (m/s, rad/s). A state that is not finite, or a
+  velocity at that clamp, is taken as divergence and raises :class:`SimulationError`.
+- Ground: ``flat`` is a plane; ``uneven`` a ``GEOM_HEIGHTFIELD`` from :meth:`Ground.heights_m`
+  (PyBullet centres a heightfield at the midpoint of its lowest and highest sample, so the field is
+  lifted by that midpoint to make its heights equal :meth:`Ground.height_at` at the samples; between
+  samples PyBullet uses two triangles per cell, the spec bilinear interpolation) over a plane at
+  z = 0 for outside it; ``wall`` a plane and a static box whose face is at x = ``wall_distance_m``.
+  Objects are static primitives; a cone is the convex hull of a 32-sided pyramid (collision and
+  looks), since PyBullet has no cone.
+- Friction: PyBullet multiplies the two frictions of a contact (MuJoCo takes the larger); with the
+  usual ground friction 1 the result is the same.
+- PyBullet has no joint armature (rotor inertia); by default it is added to the segment's link
+  inertia as a thin rotor disc on the joint axis, which the joint then feels as in MuJoCo (parent
+  joints and the whole body feel the disc too). Light segments with stiff gains need it to stay
+  stable. Self-collisions are off (PyBullet's default for URDFs).
+- Contact sites: PyBullet reports contacts per link, so each contact geom has a link of its own
+  (:mod:`backends.pybullet.urdf`); ``contact_force`` sums normal and both friction forces of that
+  link's contact points: the force on the geom, world frame. Adhesion presses each touching
+  contact geom (a contact point within 1 mm) into the surface along minus the mean contact normal,
+  at the geom's centre, every PyBullet step.
+- ``reset`` puts the root ``spawn_height_m`` above the terrain under it; if a geom would then start
+  inside the terrain (rough ground), the body is lifted just clear of it (said once in
+  :attr:`warnings`), because a PyBullet heightfield is a surface that pushes a sunken geom down.
+- What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in
+  :attr:`warnings`, as are the notes above and the reason of a divergence.
+- Cameras: TinyRenderer (software) in DIRECT mode. A planar camera uses the spec's vertical field
+  of view and square pixels (the horizontal field follows from the image's aspect ratio). A
+  spherical camera is an equirectangular image (columns: azimuth from -fov_h/2 on the left to
+  +fov_h/2 on the right, rows: elevation from +fov_v/2 at the top to -fov_v/2 at the bottom, the
+  centre looking along the camera's -z) stitched from the faces of a cube map rendered at the
+  camera (nearest-neighbour lookup).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import tempfile
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+import pybullet as pb
+
+from backends.pybullet.urdf import body_to_urdf, find_geom
+from neuronav.backend import BackendBase, Capabilities
+from neuronav.body import BodySpec, Camera, quat_to_matrix
+from neuronav.errors import ConfigError, PortError, SimulationError
+from neuronav.ports import MotorSpec, SensorSpec
+from neuronav.world import World, WorldObject
+
+GRAVITY_M_S2 = -9.81
+SAFE_MARGIN = 0.7  # keep explicit joint control this far inside its stability limit (1)
+MAX_SUBSTEPS = 64
+VELOCITY_CLAMP = 100.0  # PyBullet's btMultiBody clamps every velocity coordinate at this value
+DIVERGED_VELOCITY = 0.99 * VELOCITY_CLAMP
+TOUCH_DISTANCE_M = 1e-3  # a contact point this close (or penetrating) counts as touching, for adhesion
+FOLLOW_SIZE_PX = (640, 480)
+NEAR_M, FAR_M = 0.005, 200.0
+EYE_NUDGE_M = np.array([3.1e-7, 1.7e-7, 0.0])
+GROUND_RGBA = (0.76, 0.68, 0.52, 1.0)
+WALL_THICKNESS_M = 0.2
+CONE_SIDES = 32
+
+SENSOR_UNITS = {
+    "joint_pos": "rad", "joint_vel": "rad/s", "joint_torque": "N*m", "contact_force": "N",
+    "body_pos": "m", "body_quat": "", "body_linvel": "m/s", "body_angvel": "rad/s", "heading": "rad",
+    "velocity": "m/s", "position": "m", "odour_sites": "m", "wind_sites": "m",
+}
+
+# Cube-map faces in the camera frame (x right, y up, looking along -z): (forward, image up).
+_CUBE_FACES = (
+    ((0.0, 0.0, -1.0), (0.0, 1.0, 0.0)),
+    ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
+    ((-1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
+    ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
+    ((0.0, -1.0, 0.0), (0.0, 0.0, -1.0)),
+)
+
+
+def _xyzw(quat_wxyz) -> list[float]:
+    w, x, y, z = quat_wxyz
+    return [float(x), float(y), float(z), float(w)]
+
+
+def _rot(quat_xyzw) -> np.ndarray:
+    x, y, z, w = quat_xyzw
+    return quat_to_matrix((w, x, y, z))
+
+
+def _matrix_to_xyzw(r: np.ndarray) -> list[float]:
+    from scipy.spatial.transform import Rotation
+
+    return [float(v) for v in Rotation.from_matrix(r).as_quat()]
+
+
+def _projection(fov_v_rad: float, aspect: float) -> list[float]:
+    """OpenGL projection matrix (column-major, as PyBullet wants it)."""
+    f = 1.0 / math.tan(fov_v_rad / 2.0)
+    a, b = -(FAR_M + NEAR_M) / (FAR_M - NEAR_M), -2.0 * FAR_M * NEAR_M / (FAR_M - NEAR_M)
+    return [f / aspect, 0.0, 0.0, 0.0, 0.0, f, 0.0, 0.0, 0.0, 0.0, a, -1.0, 0.0, 0.0, b, 0.0]
+
+
+class _SphericalLookup:
+    """Which cube face and pixel each output pixel of an equirectangular camera samples."""
+
+    def __init__(self, camera: Camera) -> None:
+        fov_h, fov_v = camera.fov_rad
+        if not (0 < fov_h <= 2 * np.pi and 0 < fov_v <= np.pi):
+            raise ConfigError(f"camera {camera.name!r}: a spherical camera needs 0 < fov_h <= 2π and "
+                              f"0 < fov_v <= π, got {camera.fov_rad}")
+        w, h = camera.width_px, camera.height_px
+        azimuth = ((np.arange(w) + 0.5) / w - 0.5) * fov_h
+        elevation = (0.5 - (np.arange(h) + 0.5) / h) * fov_v
+        az, el = np.meshgrid(azimuth, elevation)
+        directions = np.stack([np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)], axis=-1)
+        forwards = np.array([f for f, _ in _CUBE_FACES])
+        face = np.argmax(directions @ forwards.T, axis=-1)
+        # Face resolution: about the output's angular resolution, at least 8 px.
+        step_rad = min(fov_h / w, fov_v / h)
+        self.size_px = int(np.clip(math.ceil((np.pi / 2) / step_rad), 8, 512))
+        self.row = np.empty((h, w), int)
+        self.col = np.empty((h, w), int)
+        for k, (forward, up) in enumerate(_CUBE_FACES):
+            mask = face == k
+            if not mask.any():
+                continue
+            forward, up = np.array(forward), np.array(up)
+            right = np.cross(forward, up)
+            d = directions[mask]
+            depth = d @ forward
+            x, y = (d @ right) / depth, (d @ up) / depth
+            n = self.size_px
+            self.col[mask] = np.clip(((x + 1.0) / 2.0 * n).astype(int), 0, n - 1)
+            self.row[mask] = np.clip(((1.0 - y) / 2.0 * n).astype(int), 0, n - 1)
+        self.face = face
+        self.faces_used = sorted(int(k) for k in np.unique(face))
+
+
+class PybulletBackend(BackendBase):
+    """One articulated body in PyBullet; implements the backend protocol (see DESIGN.md).
+
+    Parameters
+    ----------
+    timestep_s : float
+        Physics step (s).
+    solver_iterations : int
+        Constraint-solver iterations per step.
+    armature_as_inertia : bool
+        PyBullet has no joint armature: add it to the link inertia as a rotor disc on the joint axis
+        (default), or ignore it (see :func:`backends.pybullet.urdf.body_to_urdf`).
+    substeps : int or None
+        PyBullet steps per ``timestep_s``; None (default) picks the fewest that keep explicit joint
+        control stable for the loaded body (see the module docstring).
+
+    Attributes
+    ----------
+    warnings : list of str
+        Engine output and notes seen since ``load``: armature handling, substeps, a lifted spawn,
+        PyBullet's own warnings, the reason of a divergence.
+    """
+
+    def __init__(self, timestep_s: float = 0.002, solver_iterations: int = 50, armature_as_inertia: bool = True,
+                 substeps: int | None = None) -> None:
+        if not (np.isfinite(timestep_s) and timestep_s > 0):
+            raise ConfigError(f"pybullet backend: timestep_s must be a positive number of seconds, got {timestep_s}")
+        if not (isinstance(solver_iterations, int) and solver_iterations > 0):
+            raise ConfigError(f"pybullet backend: solver_iterations must be a positive int, got {solver_iterations!r}")
+        if substeps is not None and not (isinstance(substeps, int) and 1 <= substeps <= MAX_SUBSTEPS):
+            raise ConfigError(f"pybullet backend: substeps must be None (automatic) or an int in 1..{MAX_SUBSTEPS}, "
+                              f"got {substeps!r}")
+        self._dt = float(timestep_s)
+        self._requested_substeps = substeps
+        self._substeps = substeps or 1
+        self._iterations = solver_iterations
+        self._armature_as_inertia = bool(armature_as_inertia)
+        self._client: int | None = None
+        self._tmpdir: tempfile.TemporaryDirectory | None = None
+        self._body: BodySpec | None = None
+        self._world: World | None = None
+        self._inner_steps = 0
+        self._pending: list[tuple[int, np.ndarray, np.ndarray]] = []
+        self.warnings: list[str] = []
+        # What the backend chose on its own (substeps, armature handling): information, not a problem.
+        self.notes: list[str] = []
+        self._capabilities = self._placeholder_capabilities()
+
+    # -- protocol: set-up --------------------------------------------------------------------------
+    @property
+    def capabilities(self) -> Capabilities:
+        """Sensors and motors with their real shapes after ``load``; (1,) placeholders before."""
+        return self._capabilities
+
+    @property
+    def timestep(self) -> float:
+        return self._dt
+
+    @property
+    def time(self) -> float:
+        return self._inner_steps / self._substeps * self._dt
+
+    @property
+    def substeps(self) -> int:
+        """PyBullet steps per ``timestep`` (chosen at ``load`` for stability unless given)."""
+        return self._substeps
+
+    @property
+    def client_id(self) -> int | None:
+        """The PyBullet physics client of this instance (None before ``load`` and after ``close``)."""
+        return self._client
+
+    def load(self, world: World, bodies: Sequence[BodySpec]) -> None:
+        """Build ``world`` with exactly one :class:`BodySpec`, then ``reset()``.
+
+        Raises
+        ------
+        ConfigError
+            When ``bodies`` is not exactly one BodySpec, or the spec cannot be expressed.
+        """
+        if not isinstance(world, World):
+            raise ConfigError(f"pybullet backend: world must be a neuronav World, got {type(world).__name__}")
+        bodies = list(bodies)
+        if len(bodies) != 1 or not isinstance(bodies[0], BodySpec):
+            raise ConfigError(f"the pybullet backend simulates exactly one BodySpec, got "
+                              f"{[type(b).__name__ for b in bodies]}")
+        body = bodies[0]
+        # Everything that can reject the input comes before any state changes.
+        for obj in world.objects:
+            _check_object(obj)
+        urdf = body_to_urdf(body, armature_as_inertia=self._armature_as_inertia)
+        for site in body.sites:
+            if site.kind == "contact" and site.geom:
+                find_geom(body, site.segment, site.geom)
+        for camera in body.cameras:
+            if camera.projection == "planar" and not 0 < camera.fov_rad[1] < np.pi:
+                raise ConfigError(f"camera {camera.name!r}: a planar camera needs 0 < vertical fov < π, "
+                                  f"got {camera.fov_rad[1]}")
+        spherical = {c.name: _SphericalLookup(c) for c in body.cameras if c.projection == "spherical"}
+        self._body, self._world, self._urdf, self._spherical = body, world, urdf, spherical
+        if self._tmpdir is None:
+            self._tmpdir = tempfile.TemporaryDirectory(prefix="neuronav_pybullet_")
+        self._urdf_path = os.path.join(self._tmpdir.name, "body.urdf")
+        with open(self._urdf_path, "w") as handle:
+            handle.write(self._urdf.text)
+        self._heights = world.ground.heights_m()
+        if self._client is None:
+            self._client = pb.connect(pb.DIRECT)
+            if self._client < 0:
+                raise SimulationError("pybullet backend: could not start a DIRECT physics client")
+        self.warnings = []
+        self.notes = []
+        armature = [j.name for j in body.joints if j.armature > 0]
+        if armature:
+            how = ("added to the link inertia as a rotor disc on the joint axis (felt by the parents too)"
+                   if self._armature_as_inertia else "ignored")
+            self.notes.append(f"pybullet has no joint armature; {how} for {len(armature)} joints "
+                                 f"({', '.join(armature[:4])}{', ...' if len(armature) > 4 else ''})")
+        self._joints = body.joints
+        self._kp = np.array([j.kp for j in self._joints])
+        self._kd = np.array([j.kd for j in self._joints])
+        self._max_torque = np.array([j.max_torque_nm for j in self._joints])
+        self._contact_sites = body.sites_of_kind("contact")
+        self._capabilities = self._make_capabilities(body)
+        self._substeps = self._requested_substeps or 1
+        self.reset()
+        self._choose_substeps()
+
+    def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0) -> None:
+        """Rebuild the simulation and put the body at rest pose, root ``spawn_height_m`` above the ground.
+
+        Parameters
+        ----------
+        seed : int or None
+            Accepted for the protocol; the initial state does not depend on it (PyBullet is
+            deterministic), so the same calls give the same trajectory.
+        position_m : (x, y)
+            Where the root starts (m).
+        yaw_rad : float
+            Counter-clockwise rotation of the body about z from +x (heading = π/2 - yaw).
+        """
+        body = self._require()
+        position = np.asarray(position_m, float).reshape(-1)
+        if position.size != 2 or not np.isfinite(position).all() or not np.isfinite(yaw_rad):
+            raise ConfigError(f"pybullet reset: position_m must be finite (x, y) and yaw_rad finite, "
+                              f"got {position_m!r}, {yaw_rad!r}")
+        self._seed = seed
+        self._build()
+        ground_z = float(self._height_at(position[0], position[1]))
+        frame_pos = np.array([position[0], position[1], ground_z + body.spawn_height_m])
+        frame_rot = quat_to_matrix((math.cos(yaw_rad / 2), 0.0, 0.0, math.sin(yaw_rad / 2)))
+        cid = self._client
+        for index, joint in zip(self._joint_index, self._joints):
+            pb.resetJointState(self._robot, index, joint.rest_rad, 0.0, physicsClientId=cid)
+        self._place_base(frame_pos, frame_rot)
+        # A PyBullet heightfield is a surface: a geom that starts under it is pushed further down, not
+        # out. Lift the body if any part would start inside the terrain (rough ground, low spawn height).
+        sink = self._terrain_overlap_m()
+        if sink > 1e-4:  # touching is fine; overlapping by more than 0.1 mm is not
+            frame_pos[2] += sink + 1e-3
+            self._place_base(frame_pos, frame_rot)
+            note = "reset lifted the body above spawn_height_m so that no part starts inside the terrain"
+            if not any(w.startswith(note) for w in self.notes):  # once, not at every reset
+                self.notes.append(f"{note} (first at {position.tolist()}, by {sink + 1e-3:.4f} m)")
+        pb.resetBaseVelocity(self._robot, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+        self._targets = body.rest_pose_rad().astype(float)
+        self._torque = np.zeros(len(self._joints))
+        self._pending = []
+        self._inner_steps = 0
+
+    # -- protocol: running -------------------------------------------------------------------------
+    def write(self, commands: dict[str, np.ndarray]) -> None:
+        """Set ``joint_targets`` (rad), shape (1, J) or (J,), held until overwritten."""
+        self._require()
+        fixed = dict(commands)
+        joints = len(self._joints)
+        if "joint_targets" in fixed:
+            value = np.asarray(fixed["joint_targets"], dtype=float)
+            if value.shape == (joints,):
+                fixed["joint_targets"] = value[None, :]
+        checked = self._check_write(fixed, batch=1)
+        if "joint_targets" in checked:
+            targets = checked["joint_targets"][0]
+            if not np.isfinite(targets).all():
+                raise PortError("pybullet backend: joint_targets must be finite (rad)")
+            self._targets = targets.copy()
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` timesteps (``n * substeps`` PyBullet steps) with position control, adhesion and
+        the forces given to :meth:`apply_force` since the last call, all applied at every PyBullet step.
+
+        Raises
+        ------
+        SimulationError
+            When the state stops being finite or a velocity reaches PyBullet's clamp.
+        """
+        self._require()
+        if not isinstance(n, int | np.integer) or n < 0:
+            raise ConfigError(f"pybullet step: n must be a non-negative int, got {n!r}")
+        cid, robot = self._client, self._robot
+        control = bool(self._joints)
+        adhesion = self._world.adhesion_n
+        for _ in range(int(n) * self._substeps):
+            if control:
+                states = pb.getJointStates(robot, self._joint_index, physicsClientId=cid)
+                q = np.array([s[0] for s in states])
+                qd = np.array([s[1] for s in states])
+                if not (np.isfinite(q).all() and np.isfinite(qd).all()):
+                    self._diverged("a joint angle or velocity is not finite")
+                if np.abs(qd).max() >= DIVERGED_VELOCITY:
+                    worst = int(np.argmax(np.abs(qd)))
+                    self._diverged(f"joint {self._joints[worst].name!r} reached PyBullet's velocity clamp "
+                                   f"({qd[worst]:.1f} rad/s)")
+                self._torque = np.clip(self._kp * (self._targets - q) - self._kd * qd, -self._max_torque,
+                                       self._max_torque)
+                pb.setJointMotorControlArray(robot, self._joint_index, pb.TORQUE_CONTROL,
+                                             forces=self._torque.tolist(), physicsClientId=cid)
+            if self._pending:
+                frames = self._frames(sorted({link for link, _, _ in self._pending}))
+                for link, local, force in self._pending:
+                    pos, rot = frames[link]
+                    pb.applyExternalForce(robot, link, force.tolist(), (pos + rot @ local).tolist(),
+                                          pb.WORLD_FRAME, physicsClientId=cid)
+            if adhesion > 0:
+                self._apply_adhesion(adhesion)
+            pb.stepSimulation(physicsClientId=cid)
+            self._inner_steps += 1
+        self._pending = []
+        self._check_base()
+
+    def read(self, names: Iterable[str]) -> dict[str, np.ndarray]:
+        """Sensor values, each with a leading batch dimension of 1; only the names asked are computed."""
+        self._require()
+        names = self._check_read(names)
+        out: dict[str, np.ndarray] = {}
+        cache: dict[str, object] = {}
+
+        def base():
+            if "base" not in cache:
+                cache["base"] = self._base_state()
+            return cache["base"]
+
+        def joints():
+            if "joints" not in cache:
+                states = pb.getJointStates(self._robot, self._joint_index, physicsClientId=self._client)
+                cache["joints"] = (np.array([s[0] for s in states]), np.array([s[1] for s in states]))
+            return cache["joints"]
+
+        for name in names:
+            if name == "joint_pos":
+                value = joints()[0]
+            elif name == "joint_vel":
+                value = joints()[1]
+            elif name == "joint_torque":
+                value = self._torque.copy()
+            elif name == "contact_force":
+                value = self._contact_forces()
+            elif name == "body_pos":
+                value = base()[0]
+            elif name == "body_quat":
+                value = base()[1]
+            elif name == "body_linvel":
+                value = base()[2]
+            elif name == "body_angvel":
+                value = base()[3]
+            elif name == "heading":
+                forward = base()[4][:, 0]
+                value = np.array([math.atan2(forward[0], forward[1])])
+            elif name == "velocity":
+                value = base()[2][:2].copy()
+            elif name == "position":
+                value = base()[0][:2].copy()
+            elif name in ("odour_sites", "wind_sites"):
+                value = self._site_positions(self._body.sites_of_kind(name.split("_")[0]))
+            else:  # pragma: no cover - _check_read guards this
+                raise PortError(f"pybullet backend has no sensor {name!r}")
+            out[name] = np.asarray(value, float)[None, ...]
+        return out
+
+    def apply_force(self, body: int, site: str, force_n) -> None:
+        """Apply a world-frame force (N, shape (3,)) at ``site`` during every physics step of the next ``step()``."""
+        spec = self._require()
+        if body != 0:
+            raise ConfigError(f"pybullet apply_force: body {body!r} out of range; this backend has one body (0)")
+        sites = {s.name: s for s in spec.sites}
+        if site not in sites:
+            raise ConfigError(f"pybullet apply_force: body {spec.name!r} has no site {site!r}; "
+                              f"sites: {', '.join(sorted(sites)) or 'none'}")
+        force = np.asarray(force_n, float).reshape(-1)
+        if force.shape != (3,) or not np.isfinite(force).all():
+            raise ConfigError(f"pybullet apply_force: force_n must be 3 finite numbers (N, world frame), "
+                              f"got {force_n!r}")
+        target = sites[site]
+        self._pending.append((self._link_index[self._urdf.segment_link[target.segment]],
+                              np.asarray(target.pos_m, float), force))
+
+    def render(self, camera: str) -> np.ndarray:
+        """RGB image (H, W, 3) uint8 from a body camera, or ``"follow"`` (640x480, behind and above the root)."""
+        body = self._require()
+        if camera == "follow":
+            return self._render_follow()
+        cameras = {c.name: c for c in body.cameras}
+        if camera not in cameras:
+            raise PortError(f"pybullet render: no camera {camera!r}; cameras: "
+                            f"{', '.join(['follow', *sorted(cameras)])}")
+        spec = cameras[camera]
+        link = self._link_index[self._urdf.segment_link[spec.segment]]
+        pos, rot = self._frames([link])[link]
+        eye = pos + rot @ np.asarray(spec.pos_m, float)
+        cam_rot = rot @ quat_to_matrix(spec.quat)
+        if spec.projection == "planar":
+            return self._render_view(eye, cam_rot @ np.array([0.0, 0.0, -1.0]), cam_rot @ np.array([0.0, 1.0, 0.0]),
+                                     spec.width_px, spec.height_px, spec.fov_rad[1])
+        lookup = self._spherical[camera]
+        faces = np.zeros((len(_CUBE_FACES), lookup.size_px, lookup.size_px, 3), np.uint8)
+        for k in lookup.faces_used:
+            forward, up = (np.array(v) for v in _CUBE_FACES[k])
+            faces[k] = self._render_view(eye, cam_rot @ forward, cam_rot @ up, lookup.size_px, lookup.size_px,
+                                         np.pi / 2)
+        return faces[lookup.face, lookup.row, lookup.col]
+
+    def raw_step(self, n: int = 1) -> None:
+        """Call ``stepSimulation`` ``n`` times (each ``timestep / substeps``) with no control, adhesion or
+        checks (for benchmarks)."""
+        self._require()
+        cid = self._client
+        for _ in range(int(n)):
+            pb.stepSimulation(physicsClientId=cid)
+        self._inner_steps += int(n)
+
+    def close(self) -> None:
+        """Disconnect the physics client and delete the temporary URDF."""
+        if self._client is not None:
+            try:
+                pb.disconnect(physicsClientId=self._client)
+            except pb.error:  # already gone
+                pass
+            self._client = None
+        if self._tmpdir is not None:
+            self._tmpdir.cleanup()
+            self._tmpdir = None
+        self._body = None
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # noqa: BLE001 - never raise from a finaliser
+            pass
+
+    # -- building ----------------------------------------------------------------------------------
+    def _build(self) -> None:
+        """(Re)create the simulation: parameters, body first, then ground and objects."""
+        cid = self._client
+        pb.resetSimulation(physicsClientId=cid)
+        pb.setGravity(0.0, 0.0, GRAVITY_M_S2, physicsClientId=cid)
+        inner = self._dt / self._substeps
+        pb.setTimeStep(inner, physicsClientId=cid)
+        pb.setPhysicsEngineParameter(fixedTimeStep=inner, numSubSteps=0, numSolverIterations=self._iterations,
+                                     deterministicOverlappingPairs=1, physicsClientId=cid)
+        pb.setRealTimeSimulation(0, physicsClientId=cid)
+        flags = pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER
+        with _EngineOutput(self.warnings):
+            self._robot = pb.loadURDF(self._urdf_path, useFixedBase=self._urdf.fixed_base, flags=flags,
+                                      physicsClientId=cid)
+        self._index_links()
+        # Switch PyBullet's default velocity motors off: torques are applied by step().
+        movable = [i for i in range(pb.getNumJoints(self._robot, physicsClientId=cid))
+                   if pb.getJointInfo(self._robot, i, physicsClientId=cid)[2] != pb.JOINT_FIXED]
+        if movable:
+            pb.setJointMotorControlArray(self._robot, movable, pb.VELOCITY_CONTROL, forces=[0.0] * len(movable),
+                                         physicsClientId=cid)
+        self._build_ground()
+        for obj in self._world.objects:
+            self._build_object(obj)
+
+    def _index_links(self) -> None:
+        cid, robot = self._client, self._robot
+        self._link_index = {self._urdf.links[0].name: -1}
+        joint_index = {}
+        for i in range(pb.getNumJoints(robot, physicsClientId=cid)):
+            info = pb.getJointInfo(robot, i, physicsClientId=cid)
+            joint_index[info[1].decode()] = i
+            self._link_index[info[12].decode()] = i
+        self._joint_index = [joint_index[j.name] for j in self._joints]
+        dynamics = pb.getDynamicsInfo(robot, -1, physicsClientId=cid)
+        self._base_inertial_pos = np.array(dynamics[3], float)
+        self._base_inertial_rot = _rot(dynamics[4])
+        # Contact sites: (link, point in the link frame) of the geom each one reports.
+        self._contact_links = []
+        for site in self._contact_sites:
+            if site.geom:
+                segment, index = find_geom(self._body, site.segment, site.geom)
+                link = self._urdf.link(self._urdf.geom_link[(segment, index)])
+                geom = self._body.segment(segment).geoms[index]
+                point = quat_to_matrix(link.quat).T @ (np.asarray(geom.pos_m) - np.asarray(link.pos_m))
+            else:
+                link = self._urdf.link(self._urdf.segment_link[site.segment])
+                point = np.asarray(site.pos_m, float)
+            self._contact_links.append((self._link_index[link.name], point))
+
+    def _build_ground(self) -> None:
+        cid = self._client
+        ground = self._world.ground
+        half = ground.size_m / 2.0
+        plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
+        if ground.kind == "uneven" and self._heights.max() > self._heights.min():
+            spacing = ground.size_m / (ground.cells - 1)
+            field = pb.createCollisionShape(
+                pb.GEOM_HEIGHTFIELD, meshScale=[spacing, spacing, 1.0], heightfieldData=self._heights.ravel().tolist(),
+                numHeightfieldRows=ground.cells, numHeightfieldColumns=ground.cells, physicsClientId=cid)
+            # PyBullet centres the field at the midpoint of its extreme heights: lift it back.
+            lift = (self._heights.max() + self._heights.min()) / 2.0
+            terrain = pb.createMultiBody(0.0, field, -1, [0.0, 0.0, lift], physicsClientId=cid)
+            pb.changeVisualShape(terrain, -1, rgbaColor=list(GROUND_RGBA), textureUniqueId=-1, physicsClientId=cid)
+            self._set_friction(terrain)
+            top = -2e-3  # the plane's look hides under the field (without a look TinyRenderer draws a checker)
+        else:
+            top = 0.0
+        visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.005],
+                                      visualFramePosition=[0.0, 0.0, top - 0.005], rgbaColor=list(GROUND_RGBA),
+                                      physicsClientId=cid)
+        floor = pb.createMultiBody(0.0, plane, visual, [0.0, 0.0, 0.0], physicsClientId=cid)
+        self._set_friction(floor)
+        if ground.kind == "wall":
+            extents = [WALL_THICKNESS_M / 2.0, half, ground.wall_height_m / 2.0]
+            shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=extents, physicsClientId=cid)
+            look = pb.createVisualShape(pb.GEOM_BOX, halfExtents=extents, rgbaColor=[0.6, 0.6, 0.65, 1.0],
+                                        physicsClientId=cid)
+            wall = pb.createMultiBody(0.0, shape, look, [ground.wall_distance_m + WALL_THICKNESS_M / 2.0, 0.0,
+                                                         ground.wall_height_m / 2.0], physicsClientId=cid)
+            self._set_friction(wall)
+
+    def _build_object(self, obj: WorldObject) -> None:
+        cid = self._client
+        rgba = list(obj.rgba)
+        if obj.shape == "box":
+            kwargs = {"shapeType": pb.GEOM_BOX, "halfExtents": list(obj.size_m)}
+            shape = pb.createCollisionShape(**kwargs, physicsClientId=cid)
+            look = pb.createVisualShape(**kwargs, rgbaColor=rgba, physicsClientId=cid)
+        elif obj.shape == "sphere":
+            shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=obj.size_m[0], physicsClientId=cid)
+            look = pb.createVisualShape(pb.GEOM_SPHERE, radius=obj.size_m[0], rgbaColor=rgba, physicsClientId=cid)
+        elif obj.shape == "cylinder":
+            radius, half = obj.size_m
+            shape = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=radius, height=2 * half, physicsClientId=cid)
+            look = pb.createVisualShape(pb.GEOM_CYLINDER, radius=radius, length=2 * half, rgbaColor=rgba,
+                                        physicsClientId=cid)
+        else:  # cone: a many-sided pyramid, base at -half, apex at +half
+            radius, half = obj.size_m
+            angles = np.linspace(0.0, 2 * np.pi, CONE_SIDES, endpoint=False)
+            ring = [[radius * math.cos(a), radius * math.sin(a), -half] for a in angles]
+            vertices = [*ring, [0.0, 0.0, half], [0.0, 0.0, -half]]
+            apex, centre = CONE_SIDES, CONE_SIDES + 1
+            indices = []
+            for k in range(CONE_SIDES):
+                nxt = (k + 1) % CONE_SIDES
+                indices += [k, nxt, apex, nxt, k, centre]
+            shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, physicsClientId=cid)
+            look = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=rgba,
+                                        physicsClientId=cid)
+        handle = pb.createMultiBody(0.0, shape, look, list(obj.position_m), physicsClientId=cid)
+        self._set_friction(handle)
+
+    def _set_friction(self, handle: int) -> None:
+        pb.changeDynamics(handle, -1, lateralFriction=self._world.ground.friction, restitution=0.0,
+                          physicsClientId=self._client)
+
+    def _stability_margin(self, step_s: float) -> tuple[float, list[str]]:
+        """Stability margin of explicit joint control at ``step_s`` (>= 1: unstable) and the joints involved.
+
+        Semi-implicit Euler on ``M q'' = -K q - D q'`` is stable while ``h λ_D < 2`` and
+        ``2 h λ_D + h² λ_K < 4``, with λ the largest eigenvalues of ``M⁻¹D`` and ``M⁻¹K`` (D: kd plus
+        joint damping, K: kp; M: the joint-space inertia at the current pose, free base included).
+        The margin is the larger of ``h λ_D / 2`` and ``(2 h λ_D + h² λ_K) / 4``.
+        """
+        cid, robot = self._client, self._robot
+        count = pb.getNumJoints(robot, physicsClientId=cid)
+        movable = [i for i in range(count) if pb.getJointInfo(robot, i, physicsClientId=cid)[2] != pb.JOINT_FIXED]
+        angles = [pb.getJointState(robot, i, physicsClientId=cid)[0] for i in movable]
+        mass = np.array(pb.calculateMassMatrix(robot, angles, physicsClientId=cid))
+        offset = mass.shape[0] - len(movable)  # the 6 base coordinates come first for a floating base
+        damping = np.zeros(mass.shape[0])
+        stiffness = np.zeros(mass.shape[0])
+        for joint, index in zip(self._joints, self._joint_index):
+            k = offset + movable.index(index)
+            damping[k], stiffness[k] = joint.kd + joint.damping, joint.kp
+        inverse = np.linalg.inv(mass)
+        inverse = (inverse + inverse.T) / 2.0
+
+        def largest(gains):  # eigen of M⁻¹G via the symmetric G^½ M⁻¹ G^½
+            root = np.sqrt(gains)
+            values, vectors = np.linalg.eigh(root[:, None] * inverse * root[None, :])
+            return values[-1], np.abs(vectors[:, -1])
+
+        lambda_d, mode = largest(damping)
+        lambda_k, _ = largest(stiffness)
+        margin = max(step_s * lambda_d / 2.0, (2.0 * step_s * lambda_d + step_s**2 * lambda_k) / 4.0)
+        names = {offset + movable.index(index): joint.name for joint, index in zip(self._joints, self._joint_index)}
+        involved = [names[k] for k in np.argsort(mode)[::-1][:3] if k in names and mode[k] > 0.1]
+        return float(margin), involved
+
+    def _choose_substeps(self) -> None:
+        """Pick PyBullet steps per timestep so that explicit joint control stays stable (see the module doc)."""
+        if not self._joints:
+            return
+        margin, involved = self._stability_margin(self._dt)
+        wanted = max(1, math.ceil(margin / SAFE_MARGIN))
+        if self._requested_substeps is not None:
+            inner_margin = margin / self._requested_substeps  # margin scales about linearly with the step
+            if inner_margin > SAFE_MARGIN:
+                self.warnings.append(
+                    f"explicit joint control is near or past its stability limit ({inner_margin:.2f}, 1 = unstable) "
+                    f"with {self._requested_substeps} substep(s) of {self._dt / self._requested_substeps:g} s, in the "
+                    f"mode of {', '.join(involved)}; automatic substeps would use {min(wanted, MAX_SUBSTEPS)}")
+            return
+        if wanted > MAX_SUBSTEPS:
+            self.warnings.append(
+                f"explicit joint control would need {wanted} substeps per {self._dt:g} s step to be stable "
+                f"(margin {margin:.1f} in the mode of {', '.join(involved)}); using {MAX_SUBSTEPS}: lower kd/kp, "
+                "add armature, or lower timestep_s")
+            wanted = MAX_SUBSTEPS
+        elif wanted > 1:
+            self.notes.append(
+                f"running {wanted} PyBullet steps of {self._dt / wanted:g} s per {self._dt:g} s step: explicit joint "
+                f"control would be unstable at {self._dt:g} s (margin {margin:.2f}, 1 = unstable; mode of "
+                f"{', '.join(involved)})")
+        if wanted > 1:
+            self._substeps = wanted
+            self.reset()
+
+    def _place_base(self, frame_pos: np.ndarray, frame_rot: np.ndarray) -> None:
+        """Put the root's frame (not its centre of mass, which is what PyBullet places) at a pose."""
+        com_pos = frame_pos + frame_rot @ self._base_inertial_pos
+        com_rot = frame_rot @ self._base_inertial_rot
+        pb.resetBasePositionAndOrientation(self._robot, com_pos.tolist(), _matrix_to_xyzw(com_rot),
+                                           physicsClientId=self._client)
+
+    def _height_at(self, x_m, y_m) -> np.ndarray:
+        """Terrain height (m), vectorised; the same bilinear interpolation as :meth:`Ground.height_at`."""
+        ground = self._world.ground
+        half = ground.size_m / 2.0
+        scale = (ground.cells - 1) / ground.size_m
+        u = np.clip((np.asarray(x_m, float) + half) * scale, 0, ground.cells - 1.000001)
+        v = np.clip((np.asarray(y_m, float) + half) * scale, 0, ground.cells - 1.000001)
+        j, i = u.astype(int), v.astype(int)
+        fu, fv = u - j, v - i
+        h = self._heights
+        return ((1 - fv) * ((1 - fu) * h[i, j] + fu * h[i, j + 1])
+                + fv * ((1 - fu) * h[i + 1, j] + fu * h[i + 1, j + 1]))
+
+    def _terrain_overlap_m(self) -> float:
+        """How far the lowest geom dips below the terrain under its footprint (<= 0: clear)."""
+        link_of = {name: index for name, index in self._link_index.items()}
+        frames = self._frames(sorted(set(link_of.values())))
+        worst = -np.inf
+        for link in self._urdf.links:
+            pos, rot = frames[link_of[link.name]]
+            to_link = quat_to_matrix(link.quat).T
+            segment = self._body.segment(link.segment)
+            for index in link.geoms:
+                geom = segment.geoms[index]
+                centre = pos + rot @ (to_link @ (np.asarray(geom.pos_m) - np.asarray(link.pos_m)))
+                axes = rot @ to_link @ quat_to_matrix(geom.quat)
+                reach = _geom_reach(geom, axes)  # half-extent of the geom along world x, y, z
+                xs = np.linspace(centre[0] - reach[0], centre[0] + reach[0], 3)
+                ys = np.linspace(centre[1] - reach[1], centre[1] + reach[1], 3)
+                terrain = self._height_at(*np.meshgrid(xs, ys)).max()
+                worst = max(worst, terrain - (centre[2] - reach[2]))
+        return float(worst)
+
+    # -- reading -----------------------------------------------------------------------------------
+    def _frames(self, links) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """World pose (position, rotation matrix) of the URDF frame of each link index (-1: base)."""
+        cid, robot = self._client, self._robot
+        frames = {}
+        others = [k for k in links if k >= 0]
+        if -1 in links:
+            com_pos, com_orn = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
+            rot = _rot(com_orn) @ self._base_inertial_rot.T
+            frames[-1] = (np.asarray(com_pos) - rot @ self._base_inertial_pos, rot)
+        if others:
+            states = pb.getLinkStates(robot, others, computeForwardKinematics=1, physicsClientId=cid)
+            for k, state in zip(others, states):
+                frames[k] = (np.asarray(state[4], float), _rot(state[5]))
+        return frames
+
+    def _base_state(self):
+        """(frame position, quat wxyz, frame linear velocity, angular velocity, rotation) of the root."""
+        cid, robot = self._client, self._robot
+        com_pos, com_orn = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
+        linvel, angvel = pb.getBaseVelocity(robot, physicsClientId=cid)
+        rot = _rot(com_orn) @ self._base_inertial_rot.T
+        offset = rot @ self._base_inertial_pos
+        pos = np.asarray(com_pos) - offset
+        angvel = np.asarray(angvel, float)
+        # The COM moves at linvel; the root frame's origin sits at -offset from it.
+        velocity = np.asarray(linvel, float) + np.cross(angvel, -offset)
+        x, y, z, w = _matrix_to_xyzw(rot)
+        quat = np.array([w, x, y, z])
+        return pos, quat * (1.0 if w >= 0 else -1.0), velocity, angvel, rot
+
+    def _contact_forces(self) -> np.ndarray:
+        """(C, 3) total contact force on each contact site's geom, world frame (N)."""
+        forces = np.zeros((len(self._contact_links), 3))
+        for row, (link, _) in enumerate(self._contact_links):
+            for point in pb.getContactPoints(bodyA=self._robot, linkIndexA=link, physicsClientId=self._client):
+                forces[row] += (point[9] * np.asarray(point[7]) + point[10] * np.asarray(point[11])
+                                + point[12] * np.asarray(point[13]))
+        return forces
+
+    def _site_positions(self, sites) -> np.ndarray:
+        if not sites:
+            return np.zeros((0, 3))
+        links = [self._link_index[self._urdf.segment_link[s.segment]] for s in sites]
+        frames = self._frames(sorted(set(links)))
+        return np.array([frames[k][0] + frames[k][1] @ np.asarray(s.pos_m, float) for k, s in zip(links, sites)])
+
+    # -- stepping helpers --------------------------------------------------------------------------
+    def _apply_adhesion(self, adhesion_n: float) -> None:
+        """Press every touching contact geom into the surface it touches (along minus the contact normal)."""
+        cid, robot = self._client, self._robot
+        pushes = []
+        for link, point in self._contact_links:
+            normal = np.zeros(3)
+            for contact in pb.getContactPoints(bodyA=robot, linkIndexA=link, physicsClientId=cid):
+                if contact[8] <= TOUCH_DISTANCE_M:
+                    normal += contact[7]  # contactNormalOnB points from the surface to the body (A)
+            size = np.linalg.norm(normal)
+            if size > 0:
+                pushes.append((link, point, -adhesion_n * normal / size))
+        if pushes:
+            frames = self._frames(sorted({link for link, _, _ in pushes}))
+            for link, point, force in pushes:
+                pos, rot = frames[link]
+                pb.applyExternalForce(robot, link, force.tolist(), (pos + rot @ point).tolist(), pb.WORLD_FRAME,
+                                      physicsClientId=cid)
+
+    def _check_base(self) -> None:
+        cid, robot = self._client, self._robot
+        pos, _ = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
+        linvel, angvel = pb.getBaseVelocity(robot, physicsClientId=cid)
+        state = np.concatenate([pos, linvel, angvel])
+        if not np.isfinite(state).all():
+            self._diverged("the root's position or velocity is not finite")
+        if np.abs(np.concatenate([linvel, angvel])).max() >= DIVERGED_VELOCITY:
+            self._diverged(f"the root's velocity reached PyBullet's clamp (linear {np.round(linvel, 1).tolist()} "
+                           f"m/s, angular {np.round(angvel, 1).tolist()} rad/s)")
+
+    def _diverged(self, reason: str) -> None:
+        message = f"pybullet simulation diverged at t = {self.time:.4f} s: {reason}"
+        self.warnings.append(message)
+        raise SimulationError(message)
+
+    # -- rendering ---------------------------------------------------------------------------------
+    def _render_view(self, eye, forward, up, width: int, height: int, fov_v_rad: float) -> np.ndarray:
+        # TinyRenderer takes seconds for an eye exactly on a heightfield grid line with an axis-aligned
+        # view (e.g. a forward camera after the default reset); a sub-micrometre shift avoids that.
+        eye = np.asarray(eye, float) + EYE_NUDGE_M
+        view = pb.computeViewMatrix(list(map(float, eye)), list(map(float, np.asarray(eye) + forward)),
+                                    list(map(float, up)), physicsClientId=self._client)
+        _, _, rgb, _, _ = pb.getCameraImage(int(width), int(height), view, _projection(fov_v_rad, width / height),
+                                            shadow=0, renderer=pb.ER_TINY_RENDERER,
+                                            flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=self._client)
+        return np.asarray(rgb, np.uint8).reshape(int(height), int(width), 4)[:, :, :3].copy()
+
+    def _render_follow(self) -> np.ndarray:
+        pos, _, _, _, rot = self._base_state()
+        forward = np.array([rot[0, 0], rot[1, 0], 0.0])
+        norm = np.linalg.norm(forward)
+        forward = forward / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+        distance = self._follow_distance_m
+        eye = pos - distance * forward + np.array([0.0, 0.0, 0.6 * distance])
+        look = pos - eye
+        look /= np.linalg.norm(look)
+        up = np.cross(np.cross(look, [0.0, 0.0, 1.0]), look)
+        width, height = FOLLOW_SIZE_PX
+        return self._render_view(eye, look, up / np.linalg.norm(up), width, height, np.radians(50.0))
+
+    @property
+    def _follow_distance_m(self) -> float:
+        """Camera distance that frames the whole body: about three body radii."""
+        reach = 0.0
+        for segment in self._body.segments:
+            for geom in segment.geoms:
+                reach = max(reach, float(np.linalg.norm(geom.pos_m)) + max(geom.size_m))
+        reach = max(reach, max(float(np.linalg.norm(s.pos_m)) for s in self._body.segments))
+        return max(0.5, 3.0 * reach)
+
+    # -- capabilities ------------------------------------------------------------------------------
+    @staticmethod
+    def _placeholder_capabilities() -> Capabilities:
+        sensors = tuple(SensorSpec(name, (1,), units) for name, units in SENSOR_UNITS.items())
+        return Capabilities(name="pybullet", sensors=sensors, motors=(MotorSpec("joint_targets", (1,), "rad"),),
+                            batched=False, can_render=True)
+
+    @staticmethod
+    def _make_capabilities(body: BodySpec) -> Capabilities:
+        joints = len(body.joints)
+        shapes = {
+            "joint_pos": (joints,), "joint_vel": (joints,), "joint_torque": (joints,),
+            "contact_force": (len(body.sites_of_kind("contact")), 3),
+            "body_pos": (3,), "body_quat": (4,), "body_linvel": (3,), "body_angvel": (3,), "heading": (1,),
+            "velocity": (2,), "position": (2,),
+            "odour_sites": (len(body.sites_of_kind("odour")), 3), "wind_sites": (len(body.sites_of_kind("wind")), 3),
+        }
+        # Ports must have positive sizes: a body without joints or sites of a kind has no such sensor.
+        sensors = tuple(SensorSpec(name, shape, SENSOR_UNITS[name]) for name, shape in shapes.items() if min(shape) > 0)
+        motors = (MotorSpec("joint_targets", (joints,), "rad"),) if joints else ()
+        return Capabilities(name="pybullet", sensors=sensors, motors=motors, batched=False, can_render=True)
+
+    def _require(self) -> BodySpec:
+        if self._body is None or self._client is None:
+            raise SimulationError("pybullet backend: call load(world, [body_spec]) first (or it was closed)")
+        return self._body
+
+
+def _geom_reach(geom, axes: np.ndarray) -> np.ndarray:
+    """Half-extent (3,) along the world axes of a geom whose local axes are the columns of ``axes``."""
+    if geom.shape == "sphere":
+        return np.full(3, geom.size_m[0])
+    if geom.shape == "box":
+        return np.abs(axes) @ np.asarray(geom.size_m)
+    radius, half = geom.size_m
+    along = np.abs(axes[:, 2]) * half
+    if geom.shape == "capsule":
+        return along + radius
+    return along + radius * np.sqrt(np.clip(1.0 - axes[:, 2] ** 2, 0.0, 1.0))
+
+
+class _EngineOutput:
+    """Collect what PyBullet's C code prints (``b3Warning`` ...) during a call into a warnings list."""
+
+    def __init__(self, warnings: list[str]) -> None:
+        self._warnings = warnings
+
+    def __enter__(self):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        self._file = tempfile.TemporaryFile(mode="w+b")
+        self._saved = [os.dup(1), os.dup(2)]
+        os.dup2(self._file.fileno(), 1)
+        os.dup2(self._file.fileno(), 2)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        os.dup2(self._saved[0], 1)
+        os.dup2(self._saved[1], 2)
+        for fd in self._saved:
+            os.close(fd)
+        self._file.seek(0)
+        text = self._file.read().decode(errors="replace")
+        self._file.close()
+        lines = [line.strip() for line in text.splitlines() if line.strip()]
+        # b3Warning lines name the source file; the message is on the next line.
+        messages = [f"pybullet: {line}" for line in lines if not line.startswith("b3Warning[")]
+        for message in messages:
+            if message not in self._warnings:
+                self._warnings.append(message)
+
+
+def _check_object(obj: WorldObject) -> None:
+    expected = {"box": 3, "sphere": 1, "cylinder": 2, "cone": 2}[obj.shape]
+    size = tuple(obj.size_m)
+    if len(size) != expected or not all(np.isfinite(s) and s > 0 for s in size):
+        raise ConfigError(f"world object {obj.shape}: size_m needs {expected} positive numbers, got {size}")
+    if len(obj.position_m) != 3 or not np.isfinite(obj.position_m).all():
+        raise ConfigError(f"world object {obj.shape}: position_m must be 3 finite numbers, got {obj.position_m}")

@@ -1,0 +1,235 @@
+"""Sweeps: chunking, the local pool against a Dask cluster, failures and crashes, resuming."""
+
+import csv
+import json
+import os
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from neuronav.config import field
+from neuronav.errors import ConfigError, SimulationError
+from neuronav.rundir import list_parts, read_part
+from neuronav.runner import merge_timeseries, run_scenario
+from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.sweep import chunk_size_for, execute, plan_chunks, run_sweep
+
+SHORT = {"outbound_steps": 100, "inbound_steps": 100, "record_trials": 2}
+
+
+def read_rows(path):
+    with open(path) as stream:
+        return list(csv.DictReader(stream))
+
+
+# -- a test-only scenario: failures on demand --------------------------------------------------------
+
+@dataclass
+class FlakyConfig:
+    raise_seed: int = field(-1, "this trial raises")
+    diverge_seed: int = field(-1, "this trial reports a divergence")
+    crash_seed: int = field(-1, "this trial kills its worker process (never the test's own process)")
+    parent_pid: int = field(0, "the test's process id", min=0)
+
+
+class Flaky(Scenario):
+    """Trial with seed s has metric ``value`` = 2 s and a time series of 3 samples of s."""
+
+    name = "flaky"
+    description = "test-only"
+    config_type = FlakyConfig
+    backends = ("kinematic",)
+    default_backend = "kinematic"
+
+    def run(self, config, *, backend, trials, seed, video_path=None):
+        seeds = [seed + i for i in range(trials)]
+        if config.raise_seed in seeds:
+            raise ValueError(f"boom at seed {config.raise_seed}")
+        if config.crash_seed in seeds and os.getpid() != config.parent_pid:
+            os._exit(3)
+        rows = []
+        for i, s in enumerate(seeds):
+            diverged = s == config.diverge_seed
+            rows.append({"trial": i, "seed": s, "success": not diverged, "status": "failed" if diverged else "ok",
+                         "error": "diverged: value not finite" if diverged else "",
+                         "value": float("nan") if diverged else 2.0 * s})
+        series = {"samples": np.repeat(np.array(seeds, float)[:, None], 3, axis=1),
+                  "first_two": np.array(seeds[:2], float)}
+        return ScenarioResult(trials=rows, timeseries=series, aggregates={"count": float(trials)},
+                              simulated_time_s=1.0)
+
+    def figures(self, result, config, out_dir):
+        return []
+
+
+# -- planning ------------------------------------------------------------------------------------------
+
+def test_chunk_size_keeps_every_worker_busy_and_one_worker_batches_everything():
+    assert chunk_size_for(1000, points=1, workers=1) == 1000  # one batch, in process
+    assert chunk_size_for(1000, points=1, workers=2) == 125  # 8 tasks: 4 per worker
+    assert chunk_size_for(100, points=10, workers=2) == 100  # 10 points are tasks enough
+    assert chunk_size_for(10, points=1, workers=8) == 1
+    assert chunk_size_for(1000, points=1, workers=2, hint=10) == 10  # a scenario's cap
+    assert chunk_size_for(1000, points=1, workers=2, requested=7) == 7
+
+
+def test_chunks_are_cut_at_multiples_of_the_chunk_size():
+    assert plan_chunks(range(10), 4) == [(0, 4), (4, 4), (8, 2)]
+    # Resuming with trials 2, 5 and 6 done computes the chunks an uninterrupted run would have.
+    assert plan_chunks([0, 1, 3, 4, 7, 8, 9], 4) == [(0, 2), (3, 1), (4, 1), (7, 1), (8, 2)]
+
+
+def test_merge_timeseries_joins_chunks_in_trial_order():
+    pieces = [
+        (3, 3, {"x": np.arange(3.0) + 3, "head": np.array([30.0]), "fixed": np.zeros(5)}),
+        (0, 3, {"x": np.arange(3.0), "head": np.array([0.0, 1.0]), "fixed": np.ones(5)}),
+    ]
+    merged = merge_timeseries(pieces, 7)
+    np.testing.assert_array_equal(merged["x"][:6], np.arange(6.0))
+    assert np.isnan(merged["x"][6])  # no chunk covered trial 6
+    np.testing.assert_array_equal(merged["head"], [0.0, 1.0])  # the prefix up to the first gap
+    np.testing.assert_array_equal(merged["fixed"], np.ones(5))  # not per trial: the first chunk's
+
+
+# -- failures ------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_trial_that_raises_or_diverges_is_recorded_and_the_rest_finish(tmp_path, workers):
+    summary = run_sweep(Flaky(), {"diverge_seed": [-1, 5]}, trials=8, seed=1, chunk_size=3, workers=workers,
+                        overrides={"raise_seed": 4}, out_dir=tmp_path, progress=False)
+    assert summary["total_trials"] == 16 and summary["failed_trials"] == 1 + 2
+    rows = read_rows(tmp_path / "trials.csv")
+    assert [(r["diverge_seed"], r["trial"]) for r in rows] == [(d, str(t)) for d in ("-1", "5") for t in range(8)]
+    by_seed = {(r["diverge_seed"], int(r["seed"])): r for r in rows}
+    for point in ("-1", "5"):
+        raised = by_seed[(point, 4)]
+        assert raised["status"] == "failed" and raised["error"] == "ValueError: boom at seed 4"
+        assert raised["success"] == "False"
+    assert by_seed[("5", 5)]["status"] == "failed" and by_seed[("5", 5)]["error"] == "diverged: value not finite"
+    finished = [r for r in rows if r["status"] == "ok"]
+    assert len(finished) == 13 and all(float(r["value"]) == 2 * int(r["seed"]) for r in finished)
+    # The chunk with the raising trial (seeds 4..6 = trials 3..5) fell back to one trial at a time:
+    # its other trials kept their time series.
+    point = json.loads((tmp_path / "diverge_seed=-1" / "summary.json").read_text())
+    assert point["trials"] == 8 and point["failed_trials"] == 1
+    import h5py
+
+    with h5py.File(tmp_path / "diverge_seed=-1" / "timeseries.h5") as store:
+        samples = store["samples"][:]
+    assert samples.shape == (8, 3)
+    np.testing.assert_array_equal(samples[[0, 1, 2, 4, 5, 6, 7], 0], [1, 2, 3, 5, 6, 7, 8])
+    assert np.isnan(samples[3]).all()
+
+
+def test_a_trial_that_kills_its_worker_is_recorded_and_the_rest_finish(tmp_path):
+    summary = run_sweep(Flaky(), {"crash_seed": [3]}, trials=6, seed=0, chunk_size=3, workers=2,
+                        overrides={"parent_pid": os.getpid()}, out_dir=tmp_path, progress=False)
+    rows = read_rows(tmp_path / "trials.csv")
+    assert [int(r["trial"]) for r in rows] == list(range(6))
+    crashed = [r for r in rows if r["status"] != "ok"]
+    assert [r["seed"] for r in crashed] == ["3"]
+    assert crashed[0]["error"].startswith("WorkerDied: the worker process running this trial died")
+    assert summary["failed_trials"] == 1
+
+
+def test_run_trials_records_a_failed_batch_trial_by_trial():
+    from neuronav.runner import run_trials
+
+    result = run_trials(Flaky(), FlakyConfig(raise_seed=2), "kinematic", 4, 0)
+    assert [t["status"] for t in result.trials] == ["ok", "ok", "failed", "ok"]
+    assert result.timeseries["samples"].shape == (4, 3) and np.isnan(result.timeseries["samples"][2]).all()
+
+
+# -- local pool against Dask -------------------------------------------------------------------------
+
+def test_local_pool_and_dask_cluster_give_identical_trials(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    options = dict(trials=6, seed=3, overrides=SHORT, chunk_size=2, progress=False, figures=False)
+    run_sweep("path-integration", ["noise=0.0,0.2"], workers=2, out_dir=tmp_path / "pool", **options)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=False, host="127.0.0.1",
+                                  protocol="tcp", dashboard_address=None) as cluster:
+        summary = run_sweep("path-integration", ["noise=0.0,0.2"], scheduler=cluster.scheduler_address,
+                            out_dir=tmp_path / "dask", **options)
+    assert summary["total_trials"] == 12 and summary["failed_trials"] == 0
+    pool, dask = read_rows(tmp_path / "pool" / "trials.csv"), read_rows(tmp_path / "dask" / "trials.csv")
+    assert len(pool) == 12 and pool == dask  # every column of every trial, to the last digit
+    assert len(list_parts(tmp_path / "dask" / "parts" / "noise=0.2")) == 3
+
+
+# -- resuming ------------------------------------------------------------------------------------------
+
+def test_a_rerun_skips_finished_trials_and_recomputes_only_lost_ones(tmp_path):
+    options = dict(trials=6, seed=0, overrides=SHORT, chunk_size=2, workers=1, progress=False,
+                   out_dir=tmp_path, figures=False)
+    first = run_scenario("path-integration", **options)
+    assert first["trials"] == 6 and first["chunks"] == 3 and first["resumed_trials"] == 0
+    parts = {path.name: path.stat().st_mtime_ns for _, _, path in list_parts(tmp_path / "parts")}
+    before = read_rows(tmp_path / "trials.csv")
+    (tmp_path / "parts" / "trials-000002-000003.npz").unlink()  # lose one chunk
+    (tmp_path / "parts" / ".trials-000004-000005.npz.x1.tmp").write_bytes(b"half a file")  # a killed writer
+    second = run_scenario("path-integration", **options)
+    assert second["resumed_trials"] == 4
+    after = {path.name: path.stat().st_mtime_ns for _, _, path in list_parts(tmp_path / "parts")}
+    assert after.keys() == parts.keys()
+    assert all(after[n] == parts[n] for n in parts if n != "trials-000002-000003.npz")
+    assert not list((tmp_path / "parts").glob(".*.tmp"))
+    assert read_rows(tmp_path / "trials.csv") == before  # the same chunk gives the same numbers
+    third = run_scenario("path-integration", **options)
+    assert third["resumed_trials"] == 6
+
+
+def test_a_rerun_with_other_settings_is_refused(tmp_path):
+    options = dict(trials=2, seed=0, chunk_size=1, workers=1, progress=False, out_dir=tmp_path, figures=False)
+    run_scenario("path-integration", overrides=SHORT, **options)
+    with pytest.raises(ConfigError, match=r"holds results with other settings \(config.noise: 0.1 there, 0.3 now\)"):
+        run_scenario("path-integration", overrides=dict(SHORT, noise=0.3), **options)
+    with pytest.raises(ConfigError, match=r"\(trials: 2 there, 3 now\)"):
+        run_scenario("path-integration", overrides=SHORT, **dict(options, trials=3))
+    with pytest.raises(ConfigError, match=r"\(kind: 'run' there, 'sweep' now\)"):
+        run_sweep("path-integration", {"noise": [0.1]}, overrides=SHORT, **options)
+    # Workers, chunk size and scheduler are not settings of the results: a rerun with others resumes.
+    assert run_scenario("path-integration", overrides=SHORT, **dict(options, workers=2, chunk_size=2))[
+        "resumed_trials"] == 2
+
+
+def test_parts_hold_rows_with_global_trial_numbers_and_seeds(tmp_path):
+    execute(Flaky(), trials=5, seed=10, chunk_size=2, out_dir=tmp_path, progress=False)
+    found = list_parts(tmp_path / "parts")
+    assert [(first, count) for first, count, _ in found] == [(0, 2), (2, 2), (4, 1)]
+    rows, series, meta = read_part(found[1][2])
+    assert [(r["trial"], r["seed"]) for r in rows] == [(2, 12), (3, 13)]
+    assert series["samples"].shape == (2, 3) and meta["aggregates"] == {"count": 2.0}
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    # An over-all-trials aggregate cannot be combined from chunks without the scenario's help.
+    assert "aggregates_note" in summary and "count" not in summary["metrics"]
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(workers=0), "workers must be a positive integer, got 0"),
+    (dict(chunk_size=-1), "chunk size must be a positive integer"),
+    (dict(scheduler="localhost:8786"), "--scheduler expects an address like tcp://HOST:PORT"),
+    (dict(grid={"noise": []}), "--grid 'noise' has no values"),
+    (dict(grid={"noise": [0.1, 0.10]}), "--grid 'noise' lists the value 0.1 twice"),
+    (dict(grid={"nois": [0.1]}), "unknown key 'nois'"),
+    (dict(grid={"noise": [2.0]}), "key 'noise' must be <= 1.0"),
+    (dict(grid={"noise": [0.1]}, overrides=["noise=0.2"]), "key 'noise' is in both --grid and --set"),
+])
+def test_bad_sweep_input_is_a_clear_error_before_anything_runs(tmp_path, kwargs, message):
+    with pytest.raises(ConfigError, match=message):
+        execute("path-integration", out_dir=tmp_path / "out", **{"grid": {"noise": [0.1]}, **kwargs})
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_scenario_returning_the_wrong_number_of_rows_fails_its_trials(tmp_path):
+    class Short(Flaky):
+        def run(self, config, *, backend, trials, seed, video_path=None):
+            result = super().run(config, backend=backend, trials=trials, seed=seed)
+            if trials > 1:
+                raise SimulationError("batch refused")
+            result.trials = []
+            return result
+
+    summary = execute(Short(), trials=2, out_dir=tmp_path, progress=False)
+    assert summary["failed_trials"] == 2
+    assert read_rows(tmp_path / "trials.csv")[0]["error"].startswith("SimulationError: scenario 'flaky' returned 0")
