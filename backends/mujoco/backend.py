@@ -208,6 +208,30 @@ class MujocoBackend(BackendBase):
             self._forces_current = False
         self._check(data)
 
+    def model_summary(self) -> dict:
+        """What MuJoCo compiled, read back from the model: for comparing backends on one spec.
+
+        Returns
+        -------
+        dict
+            ``segment_mass_kg`` {segment: kg}, ``joint_range_rad`` {joint: (low, high)},
+            ``joint_axis_world`` {joint: unit (3,) at the current pose}, ``site_pos_m``
+            {site: (3,) world position}.
+        """
+        model, data = self._require()
+        mujoco.mj_kinematics(model, data)
+        body = self.body
+        masses = {s.name: float(model.body_mass[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, s.name)])
+                  for s in body.segments}
+        ranges, axes = {}, {}
+        for joint in body.joints:
+            index = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)
+            ranges[joint.name] = tuple(float(v) for v in model.jnt_range[index])
+            axes[joint.name] = data.xaxis[index].copy()
+        sites = {s.name: data.site_xpos[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, s.name)].copy()
+                 for s in body.sites}
+        return {"segment_mass_kg": masses, "joint_range_rad": ranges, "joint_axis_world": axes, "site_pos_m": sites}
+
     def raw_step(self, n: int = 1) -> None:
         """``mujoco.mj_step`` n times and nothing else (no adhesion, no checks): for benchmarks.
 

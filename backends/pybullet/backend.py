@@ -483,6 +483,36 @@ class PybulletBackend(BackendBase):
                                          np.pi / 2)
         return faces[lookup.face, lookup.row, lookup.col]
 
+    def model_summary(self) -> dict:
+        """What PyBullet built, read back from the engine: for comparing backends on one spec.
+
+        Returns
+        -------
+        dict
+            ``segment_mass_kg`` {segment: kg} (links split off for contact geoms are added back to
+            their segment), ``joint_range_rad`` {joint: (low, high)}, ``joint_axis_world``
+            {joint: unit (3,) at the current pose}, ``site_pos_m`` {site: (3,) world position}.
+        """
+        body = self._require()
+        cid, robot = self._client, self._robot
+        owner = {link: segment for (segment, _), link in self._urdf.geom_link.items()}
+        owner.update({link: segment for segment, link in self._urdf.segment_link.items()})
+        masses = {segment.name: 0.0 for segment in body.segments}
+        for link, index in self._link_index.items():
+            masses[owner[link]] += pb.getDynamicsInfo(robot, index, physicsClientId=cid)[0]
+        frames = self._frames(sorted(set(self._link_index.values())))
+        ranges, axes = {}, {}
+        for joint, index in zip(self._joints, self._joint_index):
+            info = pb.getJointInfo(robot, index, physicsClientId=cid)
+            ranges[joint.name] = (float(info[8]), float(info[9]))
+            # The joint axis is given in the child link's frame, which is the joint frame here.
+            axis = frames[index][1] @ np.asarray(info[13], float)
+            axes[joint.name] = axis / np.linalg.norm(axis)
+        sites = list(body.sites)
+        positions = self._site_positions(sites)
+        return {"segment_mass_kg": masses, "joint_range_rad": ranges, "joint_axis_world": axes,
+                "site_pos_m": {site.name: positions[i] for i, site in enumerate(sites)}}
+
     def raw_step(self, n: int = 1) -> None:
         """Call ``stepSimulation`` ``n`` times (each ``timestep / substeps``) with no control, adhesion or
         checks (for benchmarks)."""

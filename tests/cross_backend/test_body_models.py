@@ -1,0 +1,79 @@
+"""One body spec, two engines: MuJoCo's compiled model and PyBullet's generated URDF agree.
+
+Total and per-segment masses, joint names, axes and limits, and where every sensor site sits,
+read back from each engine after it built the desert ant — plus the physical check that the
+standing ant presses on the floor with its weight on both.
+"""
+
+# Tolerances: PyBullet keeps poses in float32-rounded URDF text and rpy angles, so agreement is
+# to a few micrometres/microradians, far below anything a gait could feel.
+import numpy as np
+import pytest
+
+from bodies.desert_ant import desert_ant
+from neuronav import registry
+from neuronav.world import World
+
+ENGINES = ["mujoco", "pybullet"]
+
+
+def summary(engine_name, body):
+    ok, reason = registry.availability("backend", engine_name)
+    if not ok:
+        pytest.skip(reason)
+    with registry.load("backend", engine_name)() as engine:
+        engine.load(World(), [body])
+        engine.reset(0, position_m=(0.3, -0.2), yaw_rad=0.7)
+        return engine.model_summary()
+
+
+@pytest.fixture(scope="module")
+def models():
+    body = desert_ant()
+    return body, {name: summary(name, body) for name in ENGINES}
+
+
+def test_masses_match_the_spec_on_both_engines(models):
+    body, built = models
+    for name, model in built.items():
+        masses = model["segment_mass_kg"]
+        assert set(masses) == {s.name for s in body.segments}, name
+        for segment in body.segments:
+            assert masses[segment.name] == pytest.approx(segment.mass_kg, rel=1e-6), (name, segment.name)
+        assert sum(masses.values()) == pytest.approx(body.total_mass_kg, rel=1e-9)
+
+
+def test_joint_names_axes_and_limits_agree(models):
+    body, built = models
+    mujoco_model, pybullet_model = built["mujoco"], built["pybullet"]
+    assert list(mujoco_model["joint_range_rad"]) == list(pybullet_model["joint_range_rad"]) == body.joint_names
+    for joint in body.joints:
+        for model in (mujoco_model, pybullet_model):
+            np.testing.assert_allclose(model["joint_range_rad"][joint.name], joint.range_rad, atol=1e-9)
+        np.testing.assert_allclose(mujoco_model["joint_axis_world"][joint.name],
+                                   pybullet_model["joint_axis_world"][joint.name], atol=1e-5, err_msg=joint.name)
+
+
+def test_sensor_sites_sit_at_the_same_places(models):
+    body, built = models
+    for site in body.sites:
+        np.testing.assert_allclose(built["mujoco"]["site_pos_m"][site.name], built["pybullet"]["site_pos_m"][site.name],
+                                   atol=1e-5, err_msg=site.name)
+
+
+@pytest.mark.parametrize("engine_name", ENGINES)
+def test_standing_ant_carries_its_weight_on_its_claws(engine_name):
+    ok, reason = registry.availability("backend", engine_name)
+    if not ok:
+        pytest.skip(reason)
+    body = desert_ant()
+    with registry.load("backend", engine_name)() as engine:
+        engine.load(World(), [body])
+        engine.reset(0)
+        engine.write({"joint_targets": body.rest_pose_rad()[None, :]})
+        engine.step(500)  # 1 s to settle
+        forces = engine.read(["contact_force"])["contact_force"][0]
+        height = engine.read(["body_pos"])["body_pos"][0, 2]
+    assert forces[:, 2].sum() == pytest.approx(body.total_mass_kg * 9.81, rel=0.03)
+    assert np.all(forces[:6, 2] > 0.5), "every claw should carry some weight"
+    assert height == pytest.approx(0.43, abs=0.03)
