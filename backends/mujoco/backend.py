@@ -232,12 +232,15 @@ class MujocoBackend(BackendBase):
                  for s in body.sites}
         return {"segment_mass_kg": masses, "joint_range_rad": ranges, "joint_axis_world": axes, "site_pos_m": sites}
 
-    def raw_step(self, n: int = 1) -> None:
+    def raw_step(self, n: int = 1, targets: np.ndarray | None = None) -> None:
         """``mujoco.mj_step`` n times and nothing else (no adhesion, no checks): for benchmarks.
 
-        The actuators still hold the last targets (the control law is part of the model).
+        The actuators hold ``targets`` (J,) when given, else the last targets (the control law is
+        part of the model), so replaying a walk's targets costs exactly MuJoCo's own steps.
         """
         model, data = self._require()
+        if targets is not None:
+            data.ctrl[:] = targets
         for _ in range(int(n)):
             mujoco.mj_step(model, data)
         mujoco.mj_step1(model, data)  # bring poses and contacts up to the new state, as step() does
