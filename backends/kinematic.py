@@ -123,8 +123,11 @@ class KinematicBackend(BackendBase):
         can_render=False,
     )
 
-    def __init__(self, calibration: UnicycleCalibration | None = None) -> None:
+    def __init__(self, calibration: UnicycleCalibration | None = None, timestep_s: float = 0.008) -> None:
+        if not timestep_s > 0:
+            raise ConfigError(f"kinematic backend: timestep_s must be > 0, got {timestep_s}")
         self.calibration = calibration or default_calibration()
+        self._unicycle_dt_s = float(timestep_s)
         self._agents: PointAgents | None = None
         self._time_s = 0.0
 
@@ -147,17 +150,24 @@ class KinematicBackend(BackendBase):
 
     @property
     def timestep(self) -> float:
-        """1 step in ``stone`` mode (units are steps); 0.008 s in ``unicycle`` mode."""
-        return 0.008 if self._agents is not None and self._agents.mode == "unicycle" else 1.0
+        """1 step in ``stone`` mode (units are steps); ``timestep_s`` (8 ms) in ``unicycle`` mode."""
+        return self._unicycle_dt_s if self._agents is not None and self._agents.mode == "unicycle" else 1.0
 
     @property
     def time(self) -> float:
         return self._time_s
 
-    def reset(self, seed: int | None = None, heading_rad: np.ndarray | None = None) -> None:
-        """Put every agent at the origin, at rest, facing ``heading_rad`` (default 0: along +y)."""
+    def reset(self, seed: int | None = None, heading_rad: np.ndarray | None = None,
+              position_m=(0.0, 0.0), yaw_rad: float | None = None) -> None:
+        """Put every agent at ``position_m``, at rest, facing ``heading_rad`` (default 0: along +y).
+
+        ``yaw_rad`` (counter-clockwise from +x, as the physics backends take it) may be given
+        instead of the heading: heading = π/2 − yaw.
+        """
         n = self.batch
-        self.position = np.zeros((n, 2))
+        if yaw_rad is not None:
+            heading_rad = np.pi / 2 - np.asarray(yaw_rad, float)
+        self.position = np.zeros((n, 2)) + np.asarray(position_m, float)
         self.velocity = np.zeros((n, 2))
         self.heading = np.zeros(n) if heading_rad is None else np.broadcast_to(
             np.asarray(heading_rad, float), (n,)).copy()

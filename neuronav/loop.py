@@ -74,8 +74,9 @@ class AgentLoop:
     ----------
     backend : Backend
         Loaded with the world and the body.
-    gait : Gait
-        Turns (turn, stride_rad) into joint targets once per control step.
+    gait : Gait or None
+        Turns (turn, stride_rad) into joint targets once per control step; None for a backend
+        that takes the locomotion command (``turn``, ``stride``) directly (the kinematic unicycle).
     clocks : Clocks
     steering : callable, optional
         Called every brain period with the loop; returns the new (turn, stride_rad).
@@ -84,7 +85,7 @@ class AgentLoop:
         The command until the brain first speaks (or for good, without a brain).
     """
 
-    def __init__(self, backend, gait: Gait, clocks: Clocks, steering: Steering | None = None,
+    def __init__(self, backend, gait: Gait | None, clocks: Clocks, steering: Steering | None = None,
                  hooks: Sequence[Hook] = (), turn: float = 0.0, stride_rad: float = np.radians(15)) -> None:
         self.backend, self.gait, self.clocks = backend, gait, clocks
         self.steering, self.hooks = steering, tuple(hooks)
@@ -95,7 +96,8 @@ class AgentLoop:
     def reset(self, **backend_reset) -> None:
         """Reset the backend (with these arguments) and the gait, then the hooks' episode start."""
         self.backend.reset(**backend_reset)
-        self.gait.reset()
+        if self.gait is not None:
+            self.gait.reset()
         self.control_steps = 0
         self.gait_time_s = 0.0
         for hook in self.hooks:
@@ -112,10 +114,13 @@ class AgentLoop:
             self.turn, self.stride_rad = float(np.clip(turn, -1.0, 1.0)), float(max(stride, 0.0))
         for hook in self.hooks:
             hook.before_step(self)
-        started = time.perf_counter()
-        targets = self.gait.step(self.turn, self.stride_rad)
-        self.gait_time_s += time.perf_counter() - started
-        self.backend.write({"joint_targets": targets[None, :]})
+        if self.gait is None:  # a point agent takes the locomotion command itself
+            self.backend.write({"turn": np.array([[self.turn]]), "stride": np.array([[self.stride_rad]])})
+        else:
+            started = time.perf_counter()
+            targets = self.gait.step(self.turn, self.stride_rad)
+            self.gait_time_s += time.perf_counter() - started
+            self.backend.write({"joint_targets": targets[None, :]})
         self.backend.step(self.clocks.physics_per_control)
         self.control_steps += 1
         for hook in self.hooks:

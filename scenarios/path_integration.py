@@ -25,6 +25,7 @@ from scipy.signal import lfilter
 from brains.cx import decode_home_vector, stone2017
 from neuronav import bind, registry
 from neuronav.config import field
+from neuronav.errors import ConfigError
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.world import PointAgents, World
 
@@ -53,23 +54,61 @@ class PathIntegrationConfig:
                               "'gaussian' (numpy's exact sampler)", choices=("table", "gaussian"))
     record_every: int = field(5, "record positions and neural activity every k steps", min=1)
     record_trials: int = field(20, "trials whose neural activity is recorded", min=0)
+    protocol: str = field("auto", "stone2017 (point agents, steps) or i2bot (a body walked by a gait, metres "
+                          "and seconds); auto: stone2017 on kinematic, i2bot on physics backends",
+                          choices=("auto", "stone2017", "i2bot"))
+    outbound_s: float = field(32.0, "i2bot: foraging time (s)", min_exclusive=0.0, max=3600.0)
+    homing_timeout_s: float = field(90.0, "i2bot: homing gives up after this long (s)", min_exclusive=0.0,
+                                    max=3600.0)
+    nest_radius_m: float = field(0.67, "i2bot: success when the body comes this close to the nest (m)",
+                                 min_exclusive=0.0)
+    k_pi: float = field(5.0, "i2bot: turn = k_PI (sum CPU1 left - sum CPU1 right) (eq. 3.6)", min_exclusive=0.0)
+    embodied_noise: float = field(0.0008, "i2bot: CX rate noise (the paper's code)", min=0.0, max=1.0)
+    embodied_memory_gain: float = field(0.04, "i2bot: CPU4 gain per gait cycle (the paper's code)",
+                                        min_exclusive=0.0)
+    velocity_input: str = field("pose", "i2bot: velocity fed to the CX: displacement per gait cycle (pose) or "
+                                "the instantaneous velocity sensor (measured)", choices=("pose", "measured"))
+    foraging_turn_std: float = field(0.35, "i2bot: std of the random turn command per gait cycle", min=0.0)
+    foraging_stride_deg: float = field(15.0, "i2bot: hip swing while foraging (deg)", min=0.0, max=40.0)
+    embodied_timestep_s: float = field(0.002, "i2bot: physics step of the body (s)", min_exclusive=0.0,
+                                       max=0.008)
 
 
 class PathIntegration(Scenario):
-    """Stone et al. 2017's path-integration experiment (non-embodied agents on the kinematic backend)."""
+    """Stone et al. 2017's path integration: point agents (stone2017) or an embodied ant (i2bot)."""
 
     name = "path-integration"
     description = "CX path integration (Stone et al. 2017): random outbound route, then the CX steers home"
     config_type = PathIntegrationConfig
-    backends = ("kinematic",)
+    backends = ("kinematic", "mujoco", "pybullet")
     default_backend = "kinematic"
+    timing_metrics = ("real_time_factor",)
 
     def smoke_config(self) -> dict:
         return {"outbound_steps": 120, "inbound_steps": 120, "record_trials": 2}
 
+    @staticmethod
+    def protocol(config: PathIntegrationConfig, backend: str) -> str:
+        """The protocol a run uses: the configured one, or by backend when ``auto``."""
+        if config.protocol != "auto":
+            return config.protocol
+        return "stone2017" if backend == "kinematic" else "i2bot"
+
+    def compare_overrides(self, backends: list[str]) -> dict:
+        """Comparing a physics body with the kinematic one only makes sense under one protocol."""
+        return {"protocol": "i2bot"} if any(b != "kinematic" for b in backends) else {}
+
     # -- running -------------------------------------------------------------------------------
     def run(self, config: PathIntegrationConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
+        protocol = self.protocol(config, backend)
+        if protocol == "i2bot":
+            from scenarios.embodied_homing import run_embodied
+
+            return run_embodied(config, backend, trials, seed)
+        if backend != "kinematic":
+            raise ConfigError(f"the stone2017 protocol moves point agents: it runs on the kinematic backend, "
+                              f"not {backend!r} (use protocol=i2bot)")
         n, t_out, t_in = trials, config.outbound_steps, config.inbound_steps
         seeds = [seed + i for i in range(n)]
         rotation, acceleration = outbound_routes(config, seeds)
@@ -122,6 +161,10 @@ class PathIntegration(Scenario):
 
     # -- figures -------------------------------------------------------------------------------
     def figures(self, result: ScenarioResult, config: PathIntegrationConfig, out_dir: Path) -> list[Path]:
+        if "fed_velocity" in result.timeseries:
+            from scenarios.embodied_homing_figures import write_embodied_figures
+
+            return write_embodied_figures(result, config, Path(out_dir))
         from scenarios.path_integration_figures import write_figures
 
         return write_figures(result, config, Path(out_dir))
