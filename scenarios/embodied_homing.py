@@ -27,7 +27,7 @@ from bodies.desert_ant import desert_ant
 from bodies.gaits import make_gait
 from brains.cx import decode_home_vector, stone2017
 from neuronav import registry
-from neuronav.loop import AgentLoop, Clocks
+from neuronav.loop import AgentLoop, Clocks, Hook
 from neuronav.scenario import ScenarioResult
 from neuronav.world import Ground, PointAgents, World
 
@@ -86,11 +86,31 @@ class HomingBrain:
         return command
 
 
-def run_embodied(config, backend_name: str, trials: int, seed: int) -> ScenarioResult:
-    """All trials of the embodied protocol, one after another (one body per engine)."""
+# Video: one frame of the follow camera every this many control steps (0.128 s), played at 30 fps.
+VIDEO_EVERY = 16
+VIDEO_FPS = 30
+
+
+class FollowVideo(Hook):
+    """Grabs the backend's ``follow`` camera every few control steps."""
+
+    def __init__(self) -> None:
+        self.frames: list[np.ndarray] = []
+
+    def after_step(self, loop: AgentLoop) -> None:
+        if loop.control_steps % VIDEO_EVERY == 1:
+            self.frames.append(loop.backend.render("follow"))
+
+
+def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=None) -> ScenarioResult:
+    """All trials of the embodied protocol, one after another (one body per engine).
+
+    With ``video_path``, the first trial is filmed by the follow camera (MP4, sped up
+    ``VIDEO_FPS * VIDEO_EVERY * 8 ms`` = 3.84 times).
+    """
     rows, logs = [], []
     for i in range(trials):
-        row, log = embodied_trial(config, backend_name, seed + i)
+        row, log = embodied_trial(config, backend_name, seed + i, video_path if i == 0 else None)
         rows.append(dict(row, trial=i, seed=seed + i))
         logs.append(log)
     steps = max(len(log["time_s"]) for log in logs)
@@ -106,7 +126,7 @@ def run_embodied(config, backend_name: str, trials: int, seed: int) -> ScenarioR
     return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=simulated)
 
 
-def embodied_trial(config, backend_name: str, seed: int) -> tuple[dict, dict]:
+def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tuple[dict, dict]:
     """One foraging trip and homing; returns the metrics row and the per-cycle log."""
     rng = np.random.default_rng([seed, 3])
     heading0 = float(rng.uniform(0.0, 2.0 * np.pi))
@@ -124,7 +144,8 @@ def embodied_trial(config, backend_name: str, seed: int) -> tuple[dict, dict]:
     started = time.perf_counter()
     with engine:
         engine.load(world, [body])
-        loop = AgentLoop(engine, gait, clocks, steering=brain)
+        video = FollowVideo() if video_path is not None else None
+        loop = AgentLoop(engine, gait, clocks, steering=brain, hooks=[video] if video else [])
         loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - heading0)
 
         def home(lp: AgentLoop) -> bool:
@@ -136,6 +157,10 @@ def embodied_trial(config, backend_name: str, seed: int) -> tuple[dict, dict]:
         loop.run(config.outbound_s + config.homing_timeout_s, until=home)
         final = engine.read(("position",))["position"][0]
     wall_s = time.perf_counter() - started
+    if video is not None:
+        from scenarios.locomotion import write_video
+
+        write_video(video_path, video.frames, fps=VIDEO_FPS)
     log = {k: list(v) for k, v in brain.log.items()}
     log["time_s"].append(np.array(loop.time_s))
     log["position_m"].append(final)

@@ -83,6 +83,7 @@ class PathIntegration(Scenario):
     backends = ("kinematic", "mujoco", "pybullet")
     default_backend = "kinematic"
     timing_metrics = ("real_time_factor",)
+    records_video = True  # on backends that render: the embodied protocol films its first trial
 
     def smoke_config(self) -> dict:
         return {"outbound_steps": 120, "inbound_steps": 120, "record_trials": 2}
@@ -105,7 +106,7 @@ class PathIntegration(Scenario):
         if protocol == "i2bot":
             from scenarios.embodied_homing import run_embodied
 
-            return run_embodied(config, backend, trials, seed)
+            return run_embodied(config, backend, trials, seed, video_path)
         if backend != "kinematic":
             raise ConfigError(f"the stone2017 protocol moves point agents: it runs on the kinematic backend, "
                               f"not {backend!r} (use protocol=i2bot)")
