@@ -42,6 +42,9 @@ TRIPOD_B = ("FR", "ML", "HR")
 # Phase offsets in units of S_n (ripple) and 2·S_n (wave), parameters.md §2.
 RIPPLE_OFFSETS = {"HL": 0, "FR": 1, "ML": 2, "HR": 3, "FL": 4, "MR": 5}
 WAVE_OFFSETS = {"FL": 0, "HR": 1, "MR": 2, "FR": 3, "HL": 4, "ML": 5}
+# IK step length per rad of stride, in mean horizontal ThC-to-claw distances: calibrated so that the IK
+# tripod walks about as fast as the FK tripod at the same stride (0.47 vs 0.47 m/s at 15°, both engines).
+IK_REACH_FACTOR = 1.25
 
 
 # -- forward kinematics from the spec ---------------------------------------------------------------
@@ -150,7 +153,7 @@ def _finite(where: str, label: str, value, positive: bool = False, nonnegative: 
 class _PhasedGait:
     """Phase bookkeeping, joint bookkeeping and target clipping shared by the FK and IK gaits."""
 
-    def __init__(self, body: BodySpec, pattern: str, steps_per_half_swing, direction) -> None:
+    def __init__(self, body: BodySpec, pattern: str, steps_per_half_swing, direction, ramp_steps=None) -> None:
         where = type(self).__name__
         if not isinstance(body, BodySpec):
             raise ConfigError(f"{where}: body must be a BodySpec, got {type(body).__name__}")
@@ -166,6 +169,11 @@ class _PhasedGait:
         self.steps_per_half_swing = int(steps_per_half_swing)
         self.direction = int(direction)
         self.cycle_steps, self.swing_steps, self.offsets_steps = phase_table(pattern, self.steps_per_half_swing)
+        if ramp_steps is None:
+            ramp_steps = self.cycle_steps
+        if isinstance(ramp_steps, bool) or not isinstance(ramp_steps, (int, np.integer)) or ramp_steps < 0:
+            raise ConfigError(f"{where}: ramp_steps must be an int >= 0 (or None: one cycle), got {ramp_steps!r}")
+        self.ramp_steps = int(ramp_steps)
         self.rest_rad = body.rest_pose_rad()
         self.low_rad = np.array([j.range_rad[0] for j in body.joints])
         self.high_rad = np.array([j.range_rad[1] for j in body.joints])
@@ -185,6 +193,18 @@ class _PhasedGait:
     def reset(self) -> None:
         """Restart at phase 0 (the first swing group starts its swing)."""
         self.step_index = 0
+
+    def envelope(self, step: int) -> float:
+        """Start-up factor at control step ``step``: 0 → 1 along a half cosine over ``ramp_steps``.
+
+        :meth:`step` multiplies the stride and the lift (IK: step length and height) by it, so a walk
+        starts from the rest pose instead of jumping every hip by ±stride on its first sample (that
+        jump kicks the body into a yaw that it then keeps: the IK tripod started 20° off its heading).
+        :meth:`targets_at` gives the steady pattern, without it.
+        """
+        if step >= self.ramp_steps:
+            return 1.0
+        return 0.5 * (1.0 - math.cos(math.pi * max(step, 0) / self.ramp_steps))
 
     def leg_phase(self, leg: str, step: int) -> tuple[bool, float]:
         """(in swing?, progress in [0, 1) through that swing or stance) of a leg at control step ``step``."""
@@ -233,19 +253,26 @@ class FKGait(_PhasedGait):
         S_n (I2Bot: 20 steps of 8 ms; a tripod cycle is then 80 steps = 0.64 s).
     direction : {+1, -1}
         +1 walks forward (+x), −1 backward.
+    ramp_steps : int, optional
+        Start-up: :meth:`step` scales hip swing and lift by :meth:`envelope` over this many control
+        steps after ``reset()`` (default: one cycle; 0: start at full stride, as I2Bot does).
     """
 
     def __init__(self, body: BodySpec, pattern: str = "tripod", hip_swing_rad: float = math.radians(15.0),
-                 lift_rad: float = math.radians(20.0), steps_per_half_swing: int = 20, direction: int = 1) -> None:
+                 lift_rad: float = math.radians(20.0), steps_per_half_swing: int = 20, direction: int = 1,
+                 ramp_steps: int | None = None) -> None:
         if pattern not in PATTERNS:
             raise ConfigError(f"FKGait: unknown pattern {pattern!r}; allowed: {', '.join(PATTERNS)}")
         self.hip_swing_rad = _finite("FKGait", "hip_swing_rad", hip_swing_rad, nonnegative=True)
         self.lift_rad = _finite("FKGait", "lift_rad", lift_rad, nonnegative=True)
-        super().__init__(body, pattern, steps_per_half_swing, direction)
+        super().__init__(body, pattern, steps_per_half_swing, direction, ramp_steps)
 
-    def targets_at(self, step: int, turn: float = 0.0, stride_rad: float | None = None) -> np.ndarray:
-        """Joint targets (J,) at control step ``step`` (no state change)."""
+    def targets_at(self, step: int, turn: float = 0.0, stride_rad: float | None = None,
+                   amplitude_scale: float = 1.0) -> np.ndarray:
+        """Joint targets (J,) at control step ``step`` (no state change); swing and lift times ``amplitude_scale``."""
         amplitude, left, right = self._command(turn, stride_rad, self.hip_swing_rad)
+        amplitude *= amplitude_scale
+        lift_rad = self.lift_rad * amplitude_scale
         targets = self.rest_rad.copy()
         for leg in LEGS:
             index = self.leg_index[leg]
@@ -253,7 +280,7 @@ class FKGait(_PhasedGait):
             r = amplitude * (left if leg[1] == "L" else right)
             swinging, progress = self.leg_phase(leg, step)
             if swinging:
-                lift = self.lift_rad * math.sin(math.pi * progress) ** 2
+                lift = lift_rad * math.sin(math.pi * progress) ** 2
                 targets[index[0]] = alpha0 - r + 2.0 * r * progress
                 targets[index[2]] = beta0 - lift
                 targets[index[3]] = gamma0 + lift
@@ -262,8 +289,8 @@ class FKGait(_PhasedGait):
         return self._clip(targets)
 
     def step(self, turn: float = 0.0, stride_rad: float | None = None) -> np.ndarray:
-        """Targets (J,) for the next control step; advances the gait by one step."""
-        targets = self.targets_at(self.step_index, turn, stride_rad)
+        """Targets (J,) for the next control step (ramped in after ``reset()``); advances the gait by one step."""
+        targets = self.targets_at(self.step_index, turn, stride_rad, self.envelope(self.step_index))
         self.step_index += 1
         return targets
 
@@ -276,11 +303,14 @@ class IKGait(_PhasedGait):
     body's x axis. Stance: a straight line on the ground from +L/2 to −L/2 (body frame, relative
     to the rest foot). Swing: the arc ``x = −(L/2)·cos(πu)``, ``z = H·sin(πu)``, u ∈ [0, 1).
     The step length per side is L times the Table 2 side factor (see the module docstring), and
-    ``stride_rad`` sets ``L = stride_rad · reach_m``, where ``reach_m`` is twice the mean horizontal
-    distance from the ThC joint to the claw at rest — so a stride moves the feet about as far as
-    the FK gait's ±stride hip swing. ThCx and TiTa hold their rest angles (the solution needs ThCx
-    rest = 0). Targets outside the reachable workspace are pulled onto its edge along the line
-    from the CTr joint, and every angle is clipped to its joint range: never NaN.
+    ``stride_rad`` sets ``L = stride_rad · reach_m``, where ``reach_m`` is ``IK_REACH_FACTOR`` (1.25)
+    times the mean horizontal distance from the ThC joint to the claw at rest — so that at the same
+    stride the IK tripod walks about as fast as the FK tripod (measured on MuJoCo and PyBullet; the FK
+    gait's feet slip and its front feet travel less, so equal foot travel would make IK ~25 % faster),
+    and the steadiness of the two is compared at matched speed. ThCx and TiTa hold their rest
+    angles (the solution needs ThCx rest = 0). Targets outside the reachable workspace are pulled
+    onto its edge along the line from the CTr joint, and every angle is clipped to its joint range:
+    never NaN.
 
     Parameters
     ----------
@@ -294,11 +324,15 @@ class IKGait(_PhasedGait):
     direction : {+1, -1}
     reach_m : float, optional
         Override the stride-to-step-length factor.
+    ramp_steps : int, optional
+        Start-up: :meth:`step` scales step length and height by :meth:`envelope` over this many
+        control steps after ``reset()`` (default: one cycle; 0: none).
     """
 
     def __init__(self, body: BodySpec, step_length_m: float | None = None, step_height_m: float | None = None,
-                 steps_per_half_swing: int = 20, direction: int = 1, reach_m: float | None = None) -> None:
-        super().__init__(body, "tripod", steps_per_half_swing, direction)
+                 steps_per_half_swing: int = 20, direction: int = 1, reach_m: float | None = None,
+                 ramp_steps: int | None = None) -> None:
+        super().__init__(body, "tripod", steps_per_half_swing, direction, ramp_steps)
         for leg in LEGS:
             if abs(self.geometry[leg]["rest_rad"][1]) > 1e-12:
                 raise ConfigError(f"IKGait: leg {leg} has ThCx rest {self.geometry[leg]['rest_rad'][1]}; "
@@ -306,7 +340,7 @@ class IKGait(_PhasedGait):
         self.rest_feet_m = np.array([foot_position(body, leg, self.geometry[leg]["rest_rad"]) for leg in LEGS])
         horizontal = [np.linalg.norm((self.rest_feet_m[i] - self.geometry[leg]["anchor_m"])[:2])
                       for i, leg in enumerate(LEGS)]
-        self.reach_m = (2.0 * float(np.mean(horizontal)) if reach_m is None
+        self.reach_m = (IK_REACH_FACTOR * float(np.mean(horizontal)) if reach_m is None
                         else _finite("IKGait", "reach_m", reach_m, positive=True))
         self.step_length_m = (math.radians(15.0) * self.reach_m if step_length_m is None
                               else _finite("IKGait", "step_length_m", step_length_m, nonnegative=True))
@@ -315,14 +349,19 @@ class IKGait(_PhasedGait):
                               else _finite("IKGait", "step_height_m", step_height_m, nonnegative=True))
         self.last_feet_m = self.rest_feet_m.copy()
 
-    def foot_targets(self, step: int, turn: float = 0.0, stride_rad: float | None = None) -> np.ndarray:
-        """Commanded claw centres (6, 3) in the body frame, ``LEGS`` order, at control step ``step``."""
+    def foot_targets(self, step: int, turn: float = 0.0, stride_rad: float | None = None,
+                     amplitude_scale: float = 1.0) -> np.ndarray:
+        """Commanded claw centres (6, 3) in the body frame, ``LEGS`` order, at control step ``step``.
+
+        Step length and height are times ``amplitude_scale`` (:meth:`step` passes the start-up envelope).
+        """
         where = "IKGait"
         turn = _finite(where, "turn", turn)
         if stride_rad is None:
             length = self.step_length_m * self.direction
         else:
             length = _finite(where, "stride_rad", stride_rad) * self.reach_m * self.direction
+        length *= amplitude_scale
         left, right = side_factors(turn)
         feet = self.rest_feet_m.copy()
         for i, leg in enumerate(LEGS):
@@ -330,7 +369,7 @@ class IKGait(_PhasedGait):
             swinging, progress = self.leg_phase(leg, step)
             if swinging:
                 feet[i, 0] += -0.5 * side_length * math.cos(math.pi * progress)
-                feet[i, 2] += self.step_height_m * math.sin(math.pi * progress)
+                feet[i, 2] += self.step_height_m * amplitude_scale * math.sin(math.pi * progress)
             else:
                 feet[i, 0] += 0.5 * side_length - side_length * progress
         return feet
@@ -344,12 +383,14 @@ class IKGait(_PhasedGait):
             targets[index[0]], targets[index[2]], targets[index[3]] = alpha, beta, gamma
         return self._clip(targets)
 
-    def targets_at(self, step: int, turn: float = 0.0, stride_rad: float | None = None) -> np.ndarray:
-        return self.solve(self.foot_targets(step, turn, stride_rad))
+    def targets_at(self, step: int, turn: float = 0.0, stride_rad: float | None = None,
+                   amplitude_scale: float = 1.0) -> np.ndarray:
+        """Joint targets (J,) at control step ``step`` (no state change, no start-up envelope)."""
+        return self.solve(self.foot_targets(step, turn, stride_rad, amplitude_scale))
 
     def step(self, turn: float = 0.0, stride_rad: float | None = None) -> np.ndarray:
-        """Targets (J,) for the next control step; ``last_feet_m`` holds the commanded feet."""
-        self.last_feet_m = self.foot_targets(self.step_index, turn, stride_rad)
+        """Targets (J,) for the next control step (ramped in after ``reset()``); ``last_feet_m`` holds the feet."""
+        self.last_feet_m = self.foot_targets(self.step_index, turn, stride_rad, self.envelope(self.step_index))
         self.step_index += 1
         return self.solve(self.last_feet_m)
 
@@ -394,6 +435,58 @@ def leg_ik(geometry: dict, foot_m) -> tuple[float, float, float]:
     beta = math.atan2(target.imag, target.real) - math.atan2(link_len * math.sin(g), femur + link_len * math.cos(g))
     gamma = g - link_arg
     return alpha, math.remainder(beta, 2.0 * math.pi), gamma
+
+
+class PostureGait:
+    """A gait with some joints held at other angles (e.g. the head raised for climbing) or offset.
+
+    Wraps an :class:`FKGait` or :class:`IKGait`: every target comes from it, except that the joints
+    in ``posture`` are held at the given angle and the joints in ``offsets`` get the given angle
+    added to the wrapped gait's target (a leg keeps its motion around a shifted centre). Both fade in
+    from the rest pose along the wrapped gait's start-up :meth:`~_PhasedGait.envelope` (no jump on
+    the first sample). Targets are clipped to the joints' ranges.
+
+    Parameters
+    ----------
+    gait : FKGait or IKGait
+    posture : dict
+        ``{joint name: angle (rad)}`` held.
+    offsets : dict, optional
+        ``{joint name: angle (rad)}`` added.
+    """
+
+    def __init__(self, gait: _PhasedGait, posture: dict[str, float], offsets: dict[str, float] | None = None) -> None:
+        if not isinstance(gait, _PhasedGait):
+            raise ConfigError(f"PostureGait: gait must be an FKGait or IKGait, got {type(gait).__name__}")
+        offsets = {} if offsets is None else offsets
+        index = {name: i for i, name in enumerate(gait.joint_names)}
+        unknown = sorted((set(posture) | set(offsets)) - set(index))
+        if unknown:
+            raise ConfigError(f"PostureGait: unknown joint {unknown[0]!r}; joints: {', '.join(gait.joint_names)}")
+        self.gait = gait
+        self.joint_names = gait.joint_names
+        self.held = np.array([index[name] for name in posture], dtype=int)
+        angles = np.array([_finite("PostureGait", f"posture[{name!r}]", v) for name, v in posture.items()])
+        self.posture_rad = np.clip(angles, gait.low_rad[self.held], gait.high_rad[self.held])
+        self.shifted = np.array([index[name] for name in offsets], dtype=int)
+        self.offsets_rad = np.array([_finite("PostureGait", f"offsets[{name!r}]", v) for name, v in offsets.items()])
+
+    def __getattr__(self, name):  # phases, cycle, envelope, ... of the wrapped gait
+        if name == "gait":
+            raise AttributeError(name)
+        return getattr(self.gait, name)
+
+    def reset(self) -> None:
+        self.gait.reset()
+
+    def step(self, turn: float = 0.0, stride_rad: float | None = None) -> np.ndarray:
+        """The wrapped gait's targets (J,) with the posture held and the offsets added; advances one step."""
+        blend = self.gait.envelope(self.gait.step_index)
+        targets = self.gait.step(turn, stride_rad)
+        rest = self.gait.rest_rad[self.held]
+        targets[self.held] = rest + blend * (self.posture_rad - rest)
+        targets[self.shifted] += blend * self.offsets_rad
+        return self.gait._clip(targets)
 
 
 def make_gait(name: str, body: BodySpec, **options):

@@ -2,19 +2,38 @@
 
 The paper's §2.2 and Fig. 2: gaits (tripod, ripple, wave; IK tripod), turning with the Table 2
 yaw control, uneven terrain, and wall climbing with adhesion. One body per physics engine, so
-trials run one after another; trial i uses seed ``seed + i`` (it sets the terrain and a small
-random initial yaw).
+trials run one after another; trial i uses seed ``seed + i`` (it sets the terrain, the start spot
+on rough ground and a small random initial yaw).
 
 Clocks: physics every ``timestep_s`` (2 ms), the gait every ``control_dt_s`` (8 ms, the paper's
-control step; one gait sample per control step).
+control step; one gait sample per control step). Gaits start from the rest pose and ramp up to
+the full stride over their first cycle (:meth:`bodies.gaits.FKGait.envelope`).
+
+Where things are measured: positions, speeds and heights at the body centre (the whole body's
+centre of mass at the rest pose, a point fixed in the thorax frame 0.34 m behind the root, between
+the middle legs), not at the root, which sits at the front of the thorax and swings round a
+0.34 m circle when the ant turns on the spot.
 
 Metrics per trial: ``forward_speed_m_s`` (displacement along the initial heading per second),
-``lateral_drift_m`` (sideways displacement at the end), ``turn_rate_rad_s`` (counter-clockwise
-positive, so turn > 0 gives a positive rate), body height mean and variance, roll and pitch
-variance, ``mean_abs_torque_nm``, ``cost_of_transport`` (mechanical work Σ|τ·q̇|dt over
-m·g·distance), ``climb_height_m`` (highest root height above its start), ``gait_us_per_step``
-(time to compute one gait sample) and ``fell`` (the body rolled or pitched past 80° or its root
-dropped below 0.1 m above the ground); ``success`` = not fell.
+``lateral_drift_m`` (sideways displacement at the end, + = left), ``turn_rate_rad_s`` (heading change
+per second, counter-clockwise positive, so turn > 0 gives a positive rate), body height mean and
+variance, roll and pitch variance, ``mean_abs_torque_nm``, ``cost_of_transport`` (mechanical work
+Σ|τ·q̇|dt over m·g·distance), ``climb_height_m`` (highest centre height above its start) and
+``climb_final_m`` (the same at the end: below the peak when the ant slid back), ``gait_us_per_step``
+(time to compute one gait sample), ``real_time_factor`` and ``fell`` (the body's up axis tipped more
+than 80° away from the floor's normal and, near the wall, from the wall's; or the centre dropped
+below 0.1 m above the ground under it: :func:`fell_over`); ``success`` = not fell.
+
+Wall (``terrain=wall``): a vertical wall faces the ant 1 m ahead (at x = 1 m; the ant starts at
+the origin heading +x, so its head reaches the wall after about 0.9 m). With ``adhesion_n`` > 0 the
+backend presses every touching claw into the surface it touches, floor included (the I2Bot rule:
+force while in contact). With ``wall_posture`` the gait holds the head raised, the antennae folded
+up and back and the gaster raised, and swings the front legs about a point 17° further forward,
+so that the front claws, not the head and the antennae (whose tips are contact sites too, and would
+be glued to the wall), meet the wall first; otherwise the legs walk the chosen gait unchanged.
+``bodies/desert_ant/README.md`` ("Wall climbing") says what happens: with these forces the ant gets
+its front legs onto the wall and rears up (PyBullet) or stays at its foot (MuJoCo); it does not
+climb the wall.
 """
 
 from __future__ import annotations
@@ -26,8 +45,9 @@ from pathlib import Path
 import numpy as np
 
 from bodies.desert_ant import LEGS, desert_ant
-from bodies.gaits import make_gait
+from bodies.gaits import PostureGait, foot_position, make_gait, segment_pose
 from neuronav import registry
+from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.config import field
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
@@ -41,6 +61,18 @@ TERRAINS = {
 }
 GRAVITY_M_S2 = 9.81
 MIDDLE_RIGHT = "MR"
+FALL_ANGLE_RAD = np.radians(80.0)
+# Climbing posture (rad): head raised to its limit, antennae raised straight and swept back over the
+# thorax (tips 0.2 m behind the root, 0.6 m up, ±0.2 m to the sides: never the first thing at the wall),
+# gaster raised 17° above the thorax axis (rest: 29° below) ...
+WALL_POSTURE_RAD = {
+    "head_pitch": 0.8, "abdomen_pitch": -0.3,
+    "antenna_L_pitch": 1.2, "antenna_L_yaw": 0.3, "antenna_L_elbow": 0.0,
+    "antenna_R_pitch": 1.2, "antenna_R_yaw": -0.3, "antenna_R_elbow": 0.0,
+}
+# ... and the front legs' hip swing centred 0.3 rad (17°) further forward, so their claws reach the wall
+# ahead of the raised head (at rest they end level with the root, 0.07 m behind the raised head's front).
+WALL_OFFSETS_RAD = {"FL_ThCz": 0.3, "FR_ThCz": 0.3}
 
 
 @dataclass
@@ -61,6 +93,12 @@ class LocomotionConfig:
     leg_scale: float = field(1.0, "all leg lengths times this factor", min_exclusive=0.0, max=3.0)
     initial_yaw_jitter_rad: float = field(0.05, "initial yaw uniform in ±this", min=0.0, max=np.pi)
     roughness_seed_offset: int = field(0, "added to the trial seed to pick the terrain", min=0)
+    wall_posture: bool = field(True, "on the wall: head and gaster up, antennae folded, front legs reach further")
+
+    def __post_init__(self) -> None:
+        # Checked here, not only when running, so that a bad pair is a ConfigError (CLI exit 2) up front.
+        if isinstance(self.control_dt_s, (int, float)) and isinstance(self.timestep_s, (int, float)):
+            integer_ratio(self.control_dt_s, self.timestep_s, "control_dt_s / timestep_s")
 
 
 class Locomotion(Scenario):
@@ -94,17 +132,89 @@ class Locomotion(Scenario):
         return write_figures(result, config, Path(out_dir))
 
 
+def build_gait(config: LocomotionConfig, body: BodySpec):
+    """The configured gait; on the wall (with ``wall_posture``) holding the climbing posture."""
+    gait = make_gait(config.gait, body)
+    if config.terrain == "wall" and config.wall_posture:
+        gait = PostureGait(gait, WALL_POSTURE_RAD, WALL_OFFSETS_RAD)
+    return gait
+
+
 def build_world(config: LocomotionConfig, seed: int) -> World:
     """The world of one trial: the terrain preset (its bumps seeded) and the adhesion force."""
     ground = Ground(**TERRAINS[config.terrain], seed=seed + config.roughness_seed_offset)
     return World(ground=ground, adhesion_n=config.adhesion_n)
 
 
+def ground_height_m(ground: Ground, xy_m, heights_m: np.ndarray | None = None) -> np.ndarray:
+    """Terrain height under each point of ``xy_m`` (..., 2): :meth:`Ground.height_at`, vectorised.
+
+    ``heights_m`` (``ground.heights_m()``) can be passed in when it is already at hand.
+    """
+    xy_m = np.asarray(xy_m, float)
+    if ground.kind != "uneven" or ground.roughness_m == 0:
+        return np.zeros(xy_m.shape[:-1])
+    heights = ground.heights_m() if heights_m is None else heights_m
+    half, scale = ground.size_m / 2.0, (ground.cells - 1) / ground.size_m
+    u = np.clip((xy_m[..., 0] + half) * scale, 0, ground.cells - 1.000001)
+    v = np.clip((xy_m[..., 1] + half) * scale, 0, ground.cells - 1.000001)
+    j, i = u.astype(int), v.astype(int)
+    fu, fv = u - j, v - i
+    return ((1 - fv) * ((1 - fu) * heights[i, j] + fu * heights[i, j + 1])
+            + fv * ((1 - fu) * heights[i + 1, j] + fu * heights[i + 1, j + 1]))
+
+
+def start_position_m(ground: Ground, body: BodySpec, yaw_rad: float, rng: np.random.Generator,
+                     radius_m: float = 3.0, tries: int = 200) -> tuple[float, float]:
+    """Where the root starts: the origin, or on rough ground a nearby spot where no claw starts in the ground.
+
+    Backends put the root ``spawn_height_m`` above the terrain under the root; where the ground under
+    a foot is higher, that claw would start inside the terrain (by up to 0.1 m on ``uneven-2``).
+    MuJoCo cannot push a claw out of a heightfield from that deep (it stays trapped and the ant
+    cannot walk), so on uneven ground the start is drawn (seeded) within ``radius_m`` of the origin
+    among spots where the ground under every claw is no higher than under the root.
+    """
+    if ground.kind != "uneven" or ground.roughness_m == 0:
+        return (0.0, 0.0)
+    rotation = np.array([[np.cos(yaw_rad), -np.sin(yaw_rad)], [np.sin(yaw_rad), np.cos(yaw_rad)]])
+    feet = np.array([foot_position(body, leg, body.rest_pose_rad())[:2] for leg in LEGS]) @ rotation.T
+    candidates = np.vstack([[0.0, 0.0], rng.uniform(-radius_m, radius_m, size=(tries, 2))])
+    heights = ground.heights_m()
+    under_root = ground_height_m(ground, candidates, heights)
+    under_feet = ground_height_m(ground, candidates[:, None, :] + feet[None, :, :], heights)  # (tries + 1, 6)
+    excess = under_feet.max(axis=1) - under_root
+    clear = np.flatnonzero(excess <= 1e-3)
+    best = clear[0] if clear.size else int(np.argmin(excess))  # the first clear spot, else the least buried
+    return (float(candidates[best, 0]), float(candidates[best, 1]))
+
+
+def body_centre_m(body: BodySpec) -> np.ndarray:
+    """The body's centre of mass at its rest pose, in the root frame (3,) m.
+
+    The root (the thorax frame) sits at the front of the thorax, 0.34 m ahead of the centre of mass
+    and of the middle legs: a body turning on the spot swings it round a 0.34 m circle. Positions,
+    speeds and heights are measured at this point instead, fixed in the root frame.
+    """
+    total, moment = 0.0, np.zeros(3)
+    for segment in body.segments:
+        rotation, position = segment_pose(body, segment.name, {})
+        com, _, _ = segment.inertial()
+        moment += segment.mass_kg * (position + rotation @ com)
+        total += segment.mass_kg
+    return moment / total
+
+
 class LocomotionRecorder(Hook):
-    """Records what the locomotion metrics and figures need, once per control step."""
+    """Records what the locomotion metrics and figures need, once per control step.
+
+    ``position_m`` is the world position of the body centre (:func:`body_centre_m`), ``root_m``
+    that of the root, ``up_axis`` the body's z axis in the world; :func:`run_trial` adds ``ground_m``,
+    the terrain height under the centre.
+    """
 
     def __init__(self, body, steps: int, control_dt_s: float, video: bool) -> None:
         names = list(body.joint_names)
+        self.centre_m = body_centre_m(body)
         self.middle_right = [names.index(f"{MIDDLE_RIGHT}_{j}") for j in ("ThCz", "CTr", "FTi")]
         contact_sites = [s.name for s in body.sites_of_kind("contact")]
         self.claws = [i for i, n in enumerate(contact_sites) if n.split("_")[0] in LEGS]
@@ -112,14 +222,21 @@ class LocomotionRecorder(Hook):
         self.work_j = self.torque_sum = 0.0
         self.frames: list[np.ndarray] = []
         self.record = {
-            "position_m": np.zeros((steps + 1, 3)), "heading_rad": np.zeros(steps + 1),
+            "position_m": np.zeros((steps + 1, 3)), "root_m": np.zeros((steps + 1, 3)),
+            "up_axis": np.zeros((steps + 1, 3)), "ground_m": np.zeros(steps + 1), "heading_rad": np.zeros(steps + 1),
             "roll_rad": np.zeros(steps + 1), "pitch_rad": np.zeros(steps + 1),
             "mr_angles_rad": np.zeros((steps, 3)), "mr_torques_nm": np.zeros((steps, 3)),
             "claw_force_n": np.zeros((steps, len(self.claws))),
+            "swing": np.zeros((steps, len(LEGS)), dtype=bool),
         }
 
     def initialize_episode(self, loop: AgentLoop) -> None:
         self._pose(loop, 0)
+
+    def before_step(self, loop: AgentLoop) -> None:
+        gait = loop.gait
+        if hasattr(gait, "in_swing") and hasattr(gait, "step_index"):  # the commanded phases, for the gait diagram
+            self.record["swing"][loop.control_steps] = gait.in_swing(gait.step_index)
 
     def after_step(self, loop: AgentLoop) -> None:
         t = loop.control_steps - 1
@@ -136,9 +253,14 @@ class LocomotionRecorder(Hook):
 
     def _pose(self, loop: AgentLoop, index: int) -> None:
         sensed = loop.backend.read(("body_pos", "body_quat", "heading"))
-        self.record["position_m"][index] = sensed["body_pos"][0]
+        root, quat = sensed["body_pos"][0], sensed["body_quat"][0]
+        rotation = quat_to_matrix(quat)
+        centre = root + rotation @ self.centre_m
+        self.record["root_m"][index] = root
+        self.record["position_m"][index] = centre
+        self.record["up_axis"][index] = rotation[:, 2]
         self.record["heading_rad"][index] = sensed["heading"][0, 0]
-        self.record["roll_rad"][index], self.record["pitch_rad"][index] = roll_pitch_rad(sensed["body_quat"][0])
+        self.record["roll_rad"][index], self.record["pitch_rad"][index] = roll_pitch_rad(quat)
 
 
 def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
@@ -149,16 +271,19 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
     steps = int(round(config.duration_s / config.control_dt_s))
     clocks = Clocks(physics_dt_s=config.timestep_s, control_dt_s=config.control_dt_s,
                     brain_dt_s=config.control_dt_s)
-    recorder = LocomotionRecorder(body, steps, config.control_dt_s, video=video_path is not None)
     yaw0 = float(rng.uniform(-config.initial_yaw_jitter_rad, config.initial_yaw_jitter_rad))
+    world = build_world(config, seed)
+    recorder = LocomotionRecorder(body, steps, config.control_dt_s, video=video_path is not None)
+    start_m = start_position_m(world.ground, body, yaw0, rng)
     with registry.load("backend", backend_name)(timestep_s=config.timestep_s) as engine:
-        engine.load(build_world(config, seed), [body])
-        loop = AgentLoop(engine, make_gait(config.gait, body), clocks, hooks=[recorder],
+        engine.load(world, [body])
+        loop = AgentLoop(engine, build_gait(config, body), clocks, hooks=[recorder],
                          turn=config.turn, stride_rad=np.radians(config.stride_deg))
-        loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=yaw0)
+        loop.reset(seed=seed, position_m=start_m, yaw_rad=yaw0)
         started = time.perf_counter()
         loop.run(config.duration_s)
         wall_s = time.perf_counter() - started
+    recorder.record["ground_m"] = ground_height_m(world.ground, recorder.record["position_m"][:, :2])
     if video_path is not None:
         write_video(video_path, recorder.frames, fps=1.0 / (4 * config.control_dt_s))
     metrics = trial_metrics(recorder.record, config, body.total_mass_kg, recorder.work_j,
@@ -174,6 +299,24 @@ def roll_pitch_rad(quat: np.ndarray) -> tuple[float, float]:
     return float(roll), float(pitch)
 
 
+def fell_over(record: dict, wall_x_m: float | None = None) -> bool:
+    """Whether the body tipped over, from its up axis and its centre's height.
+
+    Upright: the up axis within 80° of the floor's normal (+z); or, within a body length (1 m) of a
+    wall at ``wall_x_m`` (facing −x), within 80° of the wall's normal (−x) and not pointing more than
+    10° below the horizon (rearing up against the wall or standing on it is not a fall, lying on the
+    back at its foot is). Also fallen: the centre less than 0.1 m above the ground under it.
+    """
+    up, centre = record["up_axis"], record["position_m"]
+    cos_limit = np.cos(FALL_ANGLE_RAD)
+    upright = up[:, 2] >= cos_limit
+    if wall_x_m is not None:
+        near = centre[:, 0] > wall_x_m - 1.0
+        upright |= near & (-up[:, 0] >= cos_limit) & (up[:, 2] >= -cos_limit)
+    low = centre[:, 2] - record["ground_m"] < 0.1
+    return bool(np.any(~upright) or np.any(low))
+
+
 def trial_metrics(record: dict, config: LocomotionConfig, mass_kg: float, work_j: float,
                   mean_abs_torque_nm: float, gait_s_per_step: float, wall_s: float) -> dict:
     """Scalar metrics of one trial from its recorded signals."""
@@ -185,8 +328,8 @@ def trial_metrics(record: dict, config: LocomotionConfig, mass_kg: float, work_j
     yaw = np.unwrap(np.pi / 2 - heading)
     height = position[:, 2]
     distance_m = float(np.linalg.norm(np.diff(position[:, :2], axis=0), axis=1).sum())
-    fell = bool(np.any(np.abs(record["roll_rad"]) > np.radians(80))
-                or np.any(np.abs(record["pitch_rad"]) > np.radians(80)) or height.min() < 0.1)
+    wall_x_m = TERRAINS["wall"]["wall_distance_m"] if config.terrain == "wall" else None
+    fell = fell_over(record, wall_x_m)
     return {
         "success": not fell, "status": "ok", "error": "",
         "forward_speed_m_s": float(displacement @ forward / config.duration_s),
@@ -197,6 +340,7 @@ def trial_metrics(record: dict, config: LocomotionConfig, mass_kg: float, work_j
         "mean_abs_torque_nm": mean_abs_torque_nm,
         "cost_of_transport": float(work_j / (mass_kg * GRAVITY_M_S2 * distance_m)) if distance_m > 1e-3 else np.nan,
         "climb_height_m": float(height.max() - height[0]),
+        "climb_final_m": float(height[-1] - height[0]),
         "gait_us_per_step": 1e6 * gait_s_per_step,
         "real_time_factor": float(config.duration_s / wall_s) if wall_s > 0 else np.nan,
         "fell": fell,

@@ -79,7 +79,7 @@ LEG_RANGE_RAD = (-1.9, 1.9)
 FTI_RANGE_RAD = (-1.9, 2.4)
 
 # Position-controller settings (scale 1). See README.md "Actuators" for how they were chosen.
-LEG_GAINS = dict(kp=1000.0, kd=10.0, damping=1.0, armature=0.05, max_torque_nm=50.0)
+LEG_GAINS = dict(kp=1000.0, kd=20.0, damping=1.0, armature=0.05, max_torque_nm=50.0)
 TRUNK_GAINS = dict(kp=1000.0, kd=20.0, damping=2.0, armature=0.02, max_torque_nm=1000.0)
 ANTENNA_GAINS = dict(kp=20.0, kd=0.3, damping=0.02, armature=0.002, max_torque_nm=10.0)
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from bodies.desert_ant import LEGS, desert_ant, leg_geometry
-from bodies.gaits import FKGait, IKGait, foot_position, leg_ik, make_gait, side_factors
+from bodies.gaits import IK_REACH_FACTOR, FKGait, IKGait, foot_position, leg_ik, make_gait, side_factors
 from neuronav.errors import ConfigError
 
 N = 20  # S_n, steps per half swing (I2Bot default)
@@ -178,8 +178,8 @@ def test_ik_trajectory_shape(ant):
         assert np.all(np.diff(feet[~swinging, i, 0]) < 0)
         assert feet[swinging, i, 2].max() == pytest.approx(rest[i, 2] + 0.07)
         assert np.ptp(feet[:, i, 0]) == pytest.approx(0.2, rel=0.01)
-    assert gait.reach_m == pytest.approx(2 * np.mean([np.linalg.norm((rest[i] - leg_geometry(ant)[leg]["anchor_m"])[:2])
-                                                      for i, leg in enumerate(LEGS)]))
+    horizontal = [np.linalg.norm((rest[i] - leg_geometry(ant)[leg]["anchor_m"])[:2]) for i, leg in enumerate(LEGS)]
+    assert gait.reach_m == pytest.approx(IK_REACH_FACTOR * np.mean(horizontal))
 
 
 def test_ik_stays_finite_and_in_range_for_unreachable_commands(ant):
@@ -222,3 +222,48 @@ def test_bad_gait_names_and_parameters(ant):
         foot_position(ant, "XL", np.zeros(5))
     with pytest.raises(ConfigError, match="angles must have"):
         foot_position(ant, "FL", np.zeros(7))
+
+
+@pytest.mark.parametrize("name", ["tripod", "ripple", "wave", "ik"])
+def test_start_is_ramped_in_from_the_rest_pose(ant, name):
+    gait = make_gait(name, ant)
+    rest = ant.rest_pose_rad()
+    first = gait.step(0.0, math.radians(15))
+    np.testing.assert_allclose(first, rest, atol=1e-12)  # no jump of ±stride on the first sample
+    samples = [first] + [gait.step(0.0, math.radians(15)) for _ in range(2 * gait.cycle_steps)]
+    hips = np.concatenate([gait.leg_index[leg][:1] for leg in LEGS])
+    jumps = np.abs(np.diff(np.array(samples)[:, hips], axis=0)).max(axis=1)
+    stride = math.radians(15)
+    steady = max(np.abs(gait.targets_at(k + 1, 0.0, stride) - gait.targets_at(k, 0.0, stride))[hips].max()
+                 for k in range(gait.cycle_steps))
+    assert jumps.max() <= steady * 1.2  # the start-up never moves a hip much faster than steady walking does
+    # After the ramp (one cycle) the steady pattern of targets_at is back.
+    k = 2 * gait.cycle_steps
+    np.testing.assert_allclose(samples[k], gait.targets_at(k, 0.0, math.radians(15)), atol=1e-12)
+    assert [gait.envelope(k) for k in (0, gait.cycle_steps // 2, gait.cycle_steps)] == pytest.approx([0.0, 0.5, 1.0])
+    unramped = make_gait(name, ant, ramp_steps=0)
+    np.testing.assert_allclose(unramped.step(0.0, math.radians(15)), unramped.targets_at(0, 0.0, math.radians(15)))
+    with pytest.raises(ConfigError, match="ramp_steps"):
+        make_gait(name, ant, ramp_steps=-1)
+
+
+def test_posture_gait_holds_and_offsets_joints_after_a_smooth_start(ant):
+    from bodies.gaits import PostureGait
+
+    base = make_gait("tripod", ant)
+    gait = PostureGait(make_gait("tripod", ant), {"head_pitch": 0.6, "FL_FTi": 9.0}, {"FL_ThCz": 0.2})
+    names = list(ant.joint_names)
+    head, fti, thcz = names.index("head_pitch"), names.index("FL_FTi"), names.index("FL_ThCz")
+    rest = ant.rest_pose_rad()
+    first, plain = gait.step(0.0, 0.2), base.step(0.0, 0.2)
+    np.testing.assert_allclose(first, rest, atol=1e-12)  # starts from the rest pose like the gait itself
+    for _ in range(gait.cycle_steps):
+        targets, plain = gait.step(0.0, 0.2), base.step(0.0, 0.2)
+    assert targets[head] == pytest.approx(0.6)
+    assert targets[fti] == pytest.approx(ant.joints[fti].range_rad[1])  # clipped to the joint range
+    assert targets[thcz] == pytest.approx(plain[thcz] + 0.2)
+    others = np.setdiff1d(np.arange(len(names)), [head, fti, thcz])
+    np.testing.assert_array_equal(targets[others], plain[others])
+    assert gait.cycle_steps == base.cycle_steps and gait.joint_names == base.joint_names
+    with pytest.raises(ConfigError, match="unknown joint 'tail'"):
+        PostureGait(base, {"tail": 0.1})
