@@ -150,6 +150,7 @@ class Site:
     pos_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
     kind: str = "marker"
     geom: str = ""  # contact sites: the geom whose contact forces they report
+    adhesive: bool = False  # contact sites: the world's adhesion presses this geom into what it touches
 
 
 @dataclass(frozen=True)

@@ -103,8 +103,9 @@ class WorldObject:
 class World:
     """What every backend builds: a ground, static objects, and adhesion for climbing.
 
-    ``adhesion_n``: while a contact site's geom (a claw) touches a surface, a force of this size
-    presses it into that surface (0: off). Backends apply it every physics step.
+    ``adhesion_n``: while an adhesive contact site's geom (a claw: ``Site.adhesive``) touches a
+    surface, a force of this size presses it into that surface (0: off). Backends apply it every
+    physics step.
     """
 
     ground: Ground = field(default_factory=Ground)

@@ -107,6 +107,8 @@ class MujocoBackend(BackendBase):
         self.body: BodySpec | None = None
         self.world: World | None = None
         self.warnings: list[str] = []
+        # What the backend did on its own (e.g. lifting the body on reset): information, not a problem.
+        self.notes: list[str] = []
         self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
         self._pending: list[tuple[tuple[str, int], np.ndarray]] = []
 
@@ -163,10 +165,35 @@ class MujocoBackend(BackendBase):
         data.ctrl[:] = rest
         self._pending.clear()
         mujoco.mj_forward(model, data)
+        if self._free_qpos is not None:
+            # On rough ground a claw can start inside a bump and stay trapped there: lift the body
+            # until nothing of it starts inside the world (as the PyBullet backend does).
+            lifted = 0.0
+            for _ in range(20):  # contact depths are local: lift until no overlap is left
+                sink = self._deepest_penetration_m(model, data)
+                if sink <= 1e-4:
+                    break
+                data.qpos[self._free_qpos + 2] += sink + 1e-3
+                lifted += sink + 1e-3
+                mujoco.mj_forward(model, data)
+            if lifted:
+                note = "reset lifted the body above spawn_height_m so that no part starts inside the terrain"
+                if not any(n.startswith(note) for n in self.notes):
+                    self.notes.append(f"{note} (first at {[x_m, y_m]}, by {lifted:.4f} m)")
         self._torque = data.actuator_force.copy()
         self._forces_current = True
         self._seen = np.zeros(len(data.warning.number), dtype=int)
         self._diverged = ""  # the reason, once a step has failed
+
+    def _deepest_penetration_m(self, model: mujoco.MjModel, data: mujoco.MjData) -> float:
+        """How far the deepest body geom reaches into a world geom (0 when nothing overlaps)."""
+        deepest = 0.0
+        for i in range(data.ncon):
+            contact = data.contact[i]
+            bodies = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
+            if (bodies[0] == 0) != (bodies[1] == 0):  # exactly one side is the world
+                deepest = max(deepest, -float(contact.dist))
+        return deepest
 
     @property
     def timestep(self) -> float:
@@ -331,6 +358,7 @@ class MujocoBackend(BackendBase):
             self._free_qpos = int(model.jnt_qposadr[ids(mujoco.mjtObj.mjOBJ_JOINT, [names.free_joint])[0]])
         # geom id -> contact-site index (-1: not a contact geom)
         self._contact_sites = body.sites_of_kind("contact")
+        self._adhesive = np.array([site.adhesive for site in self._contact_sites], dtype=bool)
         self._site_of_geom = np.full(model.ngeom, -1, dtype=int)
         self._site_geoms = []
         for index, geoms in enumerate(names.contact_geoms):
@@ -391,7 +419,7 @@ class MujocoBackend(BackendBase):
         touching[site2[on2]] = contact.geom2[on2]
         touching[site1[on1]] = contact.geom1[on1]
         norm = np.linalg.norm(outward, axis=1)
-        pressed = np.flatnonzero((touching >= 0) & (norm > 0))
+        pressed = np.flatnonzero((touching >= 0) & (norm > 0) & self._adhesive)
         geoms = touching[pressed]
         force = -self._adhesion_n * outward[pressed] / norm[pressed, None]
         self._push(xfrc, data, model.geom_bodyid[geoms], data.geom_xpos[geoms], force)

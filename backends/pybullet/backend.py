@@ -814,7 +814,9 @@ class PybulletBackend(BackendBase):
         """Press every touching contact geom into the surface it touches (along minus the contact normal)."""
         cid, robot = self._client, self._robot
         pushes = []
-        for link, point in self._contact_links:
+        for site, (link, point) in zip(self._contact_sites, self._contact_links):
+            if not site.adhesive:
+                continue
             normal = np.zeros(3)
             for contact in pb.getContactPoints(bodyA=robot, linkIndexA=link, physicsClientId=cid):
                 if contact[8] <= TOUCH_DISTANCE_M:

@@ -297,7 +297,7 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
                      / sum(_volume(g) for g in _leg_geoms(leg, pair, published, scale).values()))
         segs, claw_pos = _leg_segments(leg, pair, lengths, tilts[leg], mass, scale)
         segments += segs
-        sites.append(Site(f"{leg}_claw", f"{leg}_tarsus", claw_pos, "contact", f"{leg}_claw"))
+        sites.append(Site(f"{leg}_claw", f"{leg}_tarsus", claw_pos, "contact", f"{leg}_claw", adhesive=True))
 
     segments += _trunk_segments(masses, scale)
     for side in ("L", "R"):

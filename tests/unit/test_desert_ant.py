@@ -220,3 +220,9 @@ def test_leg_geometry_needs_a_complete_leg(ant):
                                   sites=tuple(s for s in ant.sites if not s.name.startswith("HR_")))
     with pytest.raises(ConfigError, match="HR"):
         leg_geometry(trimmed)
+
+
+def test_only_the_claws_are_adhesive():
+    contact = desert_ant().sites_of_kind("contact")
+    assert [s.name for s in contact if s.adhesive] == [f"{leg}_claw" for leg in LEGS]
+    assert not any(s.adhesive for s in contact if "antenna" in s.name)

@@ -37,7 +37,8 @@ def small_body(root_joint=None, kp=20.0, kd=0.5, max_torque_nm=5.0) -> BodySpec:
                  Geom("sphere", (0.015,), pos_m=(0.0, 0.0, -0.1), name="claw"))
         segments.append(Segment(f"{side}_tibia", f"{side}_femur", tibia, 0.05, pos_m=(0.0, sign * 0.1, 0.0),
                                 joint=Joint(f"{side}_knee", axis=(1, 0, 0), range_rad=(-1.2, 1.3), **gains)))
-        sites.append(Site(f"{side}_claw", f"{side}_tibia", (0.0, 0.0, -0.1), kind="contact", geom="claw"))
+        sites.append(Site(f"{side}_claw", f"{side}_tibia", (0.0, 0.0, -0.1), kind="contact", geom="claw",
+                          adhesive=True))
         sites.append(Site(f"{side}_smell", f"{side}_femur", (0.0, sign * 0.05, 0.01), kind="odour"))
     sites.append(Site("nose", "root", (0.1, 0.0, 0.0), kind="wind"))
     cameras = (Camera("eye", "root", (0.11, 0.0, 0.03), FORWARD_CAMERA, 64, 16, (1.6, 0.4)),

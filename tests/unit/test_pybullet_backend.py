@@ -39,8 +39,8 @@ def small_body(kp=20.0, kd=0.1, claw_friction=1.0) -> BodySpec:
                   friction=claw_friction)),
             0.1, Joint(f"{side}_knee", axis=(2.0, 0.0, 0.0), range_rad=(-1.5, 1.4), kp=kp, kd=kd, max_torque_nm=10.0),
             pos_m=(0.0, sign * 0.1, 0.0)))
-        sites.append(Site(f"{side}_claw", f"{side}_lower", (0.0, 0.0, -0.15), "contact", f"{side}_claw"))
-    sites += [Site("tail", "root", (-0.14, 0.0, -0.145), "contact", "tail"),
+        sites.append(Site(f"{side}_claw", f"{side}_lower", (0.0, 0.0, -0.15), "contact", f"{side}_claw", adhesive=True))
+    sites += [Site("tail", "root", (-0.14, 0.0, -0.145), "contact", "tail", adhesive=True),
               Site("nose", "root", (0.15, 0.0, 0.0), "odour"),
               Site("left_eye", "root", (0.12, 0.05, 0.04), "wind"),
               Site("centre", "root", (0.0, 0.0, 0.0), "marker")]
