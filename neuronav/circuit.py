@@ -9,6 +9,7 @@ source_size), ``delay`` (read the source's value from the previous step) and, fo
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -23,6 +24,26 @@ from neuronav.errors import CircuitError
 from neuronav.ports import MotorSpec, SensorSpec
 
 KINDS = ("input", "rate", "leaky", "integrator", "output")
+
+
+def _declaration(method):
+    """Report a malformed argument to a declaration method as one :class:`CircuitError`.
+
+    The methods check what they can by name; whatever else Python or numpy trips over (an
+    unhashable name, a string where a number belongs) still surfaces as the project's error,
+    naming the call.
+    """
+
+    @functools.wraps(method)
+    def checked(*args, **kwargs):
+        try:
+            return method(*args, **kwargs)
+        except CircuitError:
+            raise
+        except (TypeError, ValueError, AttributeError, KeyError, IndexError) as error:
+            raise CircuitError(f"{method.__name__}: bad argument ({type(error).__name__}: {error})") from None
+
+    return checked
 
 
 @dataclass(frozen=True)
@@ -92,9 +113,20 @@ class Population:
             raise CircuitError(f"{where}: size must be a positive int, got {self.size!r}")
         if self.kind not in KINDS:
             raise CircuitError(f"{where}: unknown kind {self.kind!r}; allowed: {', '.join(KINDS)}")
+        if not isinstance(self.activation, str):
+            raise CircuitError(f"{where}: activation must be a name (str), got {self.activation!r}")
+        if not isinstance(self.params, dict):
+            raise CircuitError(f"{where}: params must be a dict of activation parameters, got {self.params!r}")
+        if not isinstance(self.encoder, str) or not isinstance(self.encoder_params, dict):
+            raise CircuitError(f"{where}: encoder must be a name and encoder_params a dict, got "
+                               f"{self.encoder!r}, {self.encoder_params!r}")
         check_activation(self.name, self.activation, self.params)
-        for label, value in (("bias", self.bias), ("noise_std", self.noise_std), ("initial", self.initial)):
-            if not isinstance(value, (int, float)) or not np.isfinite(value):
+        numbers = (("bias", self.bias), ("noise_std", self.noise_std), ("initial", self.initial),
+                   ("gain", self.gain), ("leak", self.leak))
+        if self.tau_s is not None:
+            numbers += (("tau_s", self.tau_s),)
+        for label, value in numbers:
+            if not isinstance(value, (int, float, np.number)) or isinstance(value, bool) or not np.isfinite(value):
                 raise CircuitError(f"{where}: {label} must be a finite number, got {value!r}")
         if self.noise_std < 0:
             raise CircuitError(f"{where}: noise_std must be >= 0, got {self.noise_std}")
@@ -135,6 +167,7 @@ class Circuit:
         self.dt_s = dt_s
 
     # -- declaring --------------------------------------------------------------------------
+    @_declaration
     def add(self, population: Population) -> Population:
         """Add a :class:`Population`; its name must be new."""
         population.validate()
@@ -143,10 +176,12 @@ class Circuit:
         self.graph.add_node(population.name, population=population)
         return population
 
+    @_declaration
     def add_population(self, name: str, size: int, kind: str = "rate", **options: Any) -> Population:
         """Add a ``rate``, ``leaky`` or ``integrator`` population; options as in :class:`Population`."""
         return self.add(_population(name, size, kind, options))
 
+    @_declaration
     def add_input(
         self, name: str, size: int, ports: Iterable[SensorSpec], encoder: str = "identity",
         encoder_params: dict | None = None, **options: Any,
@@ -157,10 +192,12 @@ class Circuit:
             dict(options, ports=tuple(ports), encoder=encoder, encoder_params=dict(encoder_params or {})),
         ))
 
+    @_declaration
     def add_output(self, name: str, size: int, port: MotorSpec, **options: Any) -> Population:
         """Add an ``output`` population that writes the motor ``port``."""
         return self.add(_population(name, size, "output", dict(options, ports=(port,))))
 
+    @_declaration
     def connect(
         self, source: str, target: str, weights: Any = None, *, rule: str | None = None,
         rule_params: dict | None = None, gain: float = 1.0, sign: int = 1, delay: bool | None = None,
@@ -194,6 +231,8 @@ class Circuit:
             raise CircuitError(f"connection {source!r} -> {target!r}: an output population drives nothing")
         if sign not in (1, -1):
             raise CircuitError(f"connection {source!r} -> {target!r}: sign must be 1 or -1, got {sign!r}")
+        if rule is not None and not isinstance(rule, str):
+            raise CircuitError(f"connection {source!r} -> {target!r}: rule must be a name, got {rule!r}")
         if (weights is None) == (rule is None):
             raise CircuitError(f"connection {source!r} -> {target!r}: give exactly one of weights or rule")
         if rule is not None:
@@ -208,10 +247,11 @@ class Circuit:
                 f"connection {source!r} -> {target!r}: weights have shape {matrix.shape}, expected "
                 f"(target_size, source_size) = ({dst.size}, {src.size})"
             )
+        matrix = sign * float(gain) * matrix
         if not np.all(np.isfinite(matrix)):
-            raise CircuitError(f"connection {source!r} -> {target!r}: weights contain NaN or inf")
+            raise CircuitError(f"connection {source!r} -> {target!r}: weights (times gain {gain!r}) contain NaN or inf")
         self.graph.add_edge(
-            source, target, weights=sign * float(gain) * matrix,
+            source, target, weights=matrix,
             delay=(source == target) if delay is None else bool(delay), rule=rule, sign=sign,
         )
 
@@ -264,6 +304,7 @@ class Circuit:
         return matrix, blocks
 
     # -- composing --------------------------------------------------------------------------
+    @_declaration
     def renamed(self, prefix: str) -> Circuit:
         """A copy with every population renamed ``prefix + name`` (ports keep their names)."""
         out = Circuit(self.name, dt_s=self.dt_s)
@@ -275,6 +316,7 @@ class Circuit:
         return out
 
     @classmethod
+    @_declaration
     def merge(
         cls, *circuits: Circuit, prefixes: Iterable[str] | None = None,
         connections: Iterable[tuple] = (), name: str = "merged",
@@ -290,6 +332,8 @@ class Circuit:
             Extra connections ``(source, target, kwargs)`` between the merged populations, using
             the prefixed names; ``kwargs`` as in :meth:`connect`.
         """
+        if prefixes is not None and (isinstance(prefixes, str) or not all(isinstance(p, str) for p in prefixes)):
+            raise CircuitError(f"merge: prefixes must be a sequence of strings, one per circuit, got {prefixes!r}")
         prefixes = list(prefixes) if prefixes is not None else [""] * len(circuits)
         if len(prefixes) != len(circuits):
             raise CircuitError(f"merge: {len(circuits)} circuits but {len(prefixes)} prefixes")
@@ -304,6 +348,8 @@ class Circuit:
             for source, target, data in part.graph.edges(data=True):
                 out.graph.add_edge(source, target, **data)
         for connection in connections:
+            if not isinstance(connection, (tuple, list)) or len(connection) not in (2, 3):
+                raise CircuitError(f"merge: a connection is (source, target[, options]), got {connection!r}")
             source, target, *rest = connection
             out.connect(source, target, **(rest[0] if rest else {}))
         return out

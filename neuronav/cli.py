@@ -8,6 +8,7 @@ file, a run directory holding other settings) prints one line to stderr and exit
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -22,7 +23,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports a usage error in one line."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        sys.stderr.write(f"neuronav: error: {message} (see neuronav {self.prog.split()[-1]} --help)\n")
+        sys.stderr.write(f"neuronav: error: {_one_line(message)} (see {self.prog} --help)\n")
         raise SystemExit(2)
 
 
@@ -84,7 +85,7 @@ def main(argv: list[str] | None = None) -> int:
             summary = run_scenario(args.scenario, backend=args.backend, trials=args.trials, seed=args.seed,
                                    overrides=args.overrides, out_dir=args.out, video=args.video,
                                    command=["neuronav", *argv], config_file=args.config,
-                                   workers=1 if args.workers is None and args.scheduler is None else args.workers,
+                                   workers=args.workers,
                                    scheduler=args.scheduler, chunk_size=args.chunk_size,
                                    progress=args.progress, figures=args.figures)
             _print_summary(summary)
@@ -95,17 +96,31 @@ def main(argv: list[str] | None = None) -> int:
     except NeuronavError as error:
         sys.stderr.write(f"neuronav: error: {_one_line(error)}\n")
         return 2
+    except BrokenPipeError:  # the reader went away (``neuronav list | head``): nothing more to say
+        _silence_stdout()
+        return 0
     except OSError as error:  # a file system problem (disk full, permissions): one line too
         where = f" ({error.filename})" if getattr(error, "filename", None) else ""
-        sys.stderr.write(f"neuronav: error: {error.strerror or error}{where}\n")
+        sys.stderr.write(f"neuronav: error: {_one_line(f'{error.strerror or error}{where}')}\n")
         return 2
     except KeyboardInterrupt:
         sys.stderr.write("neuronav: interrupted; finished trials are kept — rerun the same command to resume\n")
         return 130
 
 
-def _one_line(error: BaseException) -> str:
-    text = " ".join(str(error).split())
+def _silence_stdout() -> None:
+    """Point stdout at /dev/null so that the interpreter's final flush does not fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError):
+        pass
+
+
+def _one_line(error: BaseException | str) -> str:
+    """The message on one printable line: control characters (from user input) escaped."""
+    text = str(error)
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text).strip()
     return text or type(error).__name__
 
 

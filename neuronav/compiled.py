@@ -102,7 +102,16 @@ class CompiledCircuit:
         self.noise_method = noise_method
         if not isinstance(batch, (int, np.integer)) or isinstance(batch, bool) or batch < 1:
             raise CircuitError(f"batch must be a positive int, got {batch!r}")
-        dtype = np.dtype(dtype)
+        try:
+            dtype = np.dtype(dtype)
+        except (TypeError, ValueError):
+            raise CircuitError(f"dtype must be float64 or float32, got {dtype!r}") from None
+        for value in [seed] if seeds is None else list(seeds):
+            if value is not None and (not isinstance(value, (int, np.integer)) or isinstance(value, bool)
+                                      or value < 0):
+                raise CircuitError(f"seeds must be non-negative ints, got {value!r}")
+        if dt_s is not None and (not isinstance(dt_s, (int, float, np.number)) or not np.isfinite(dt_s)):
+            raise CircuitError(f"dt_s must be a finite number of seconds, got {dt_s!r}")
         if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
             raise CircuitError(f"dtype must be float64 or float32, got {dtype}")
         if seeds is not None:
@@ -152,9 +161,10 @@ class CompiledCircuit:
         for name in self.order:
             pop = circuit.population(name)
             if pop.kind == "input":
+                encoder = get_encoder(name, pop.encoder)
+                self._check_encoder(pop, encoder)
                 self._inputs.append((
-                    self.cells[name], get_encoder(name, pop.encoder),
-                    tuple(p.name for p in pop.ports), dict(pop.encoder_params), name,
+                    self.cells[name], encoder, tuple(p.name for p in pop.ports), dict(pop.encoder_params), name,
                 ))
                 continue
             if pop.kind == "leaky":
@@ -199,6 +209,23 @@ class CompiledCircuit:
         self.reset()
 
     # -- building -------------------------------------------------------------------------------
+    @staticmethod
+    def _check_encoder(pop, encoder) -> None:
+        """The encoder must turn its ports into exactly ``pop.size`` values per agent."""
+        probe = [np.zeros((1, *port.shape)) for port in pop.ports]
+        try:
+            shape = np.shape(encoder(*probe, **pop.encoder_params))
+        except (TypeError, ValueError, IndexError) as error:
+            ports = [p.name for p in pop.ports]
+            raise CircuitError(f"input population {pop.name!r}: encoder {pop.encoder!r} cannot read ports "
+                               f"{ports} with parameters {pop.encoder_params} ({error})") from None
+        if shape != (1, pop.size):
+            raise CircuitError(
+                f"input population {pop.name!r} has {pop.size} cells but encoder {pop.encoder!r} makes "
+                f"{shape[1:] if len(shape) > 1 else shape} values per agent from ports "
+                f"{', '.join(f'{p.name} {p.shape}' for p in pop.ports)}"
+            )
+
     def _reads(self, sources: list[tuple[str, np.ndarray]], size: int, from_snapshot: bool) -> list:
         """Group sources lying close together in the state into one matrix product each.
 
@@ -308,12 +335,18 @@ class CompiledCircuit:
         dict of str to ndarray
             One array per motor port, shape (batch, *port_shape).
         """
+        if not isinstance(inputs, dict):
+            raise PortError(f"circuit {self.circuit.name!r}: inputs must be a dict of port -> array, "
+                            f"got {type(inputs).__name__}")
         state = self._state
         shapes = self._sensor_shapes
         for port, shape in shapes.items():
             value = inputs.get(port)
             if value is None or getattr(value, "shape", None) != shape:
                 self._raise_input_error(inputs)
+            if value.dtype.kind not in "fiu":
+                raise PortError(f"circuit {self.circuit.name!r}: port {port!r} needs numbers, got an array of "
+                                f"{value.dtype}")
         for port, low, high in self._sensor_ranges:
             value = inputs[port]
             if not (value.min() >= low and value.max() <= high):  # False for NaN too
@@ -385,7 +418,7 @@ class CompiledCircuit:
     # -- reading --------------------------------------------------------------------------------
     def rates(self, name: str) -> np.ndarray:
         """A copy of population ``name``'s current rates, shape (batch, size)."""
-        if name not in self.cells:
+        if not isinstance(name, str) or name not in self.cells:
             raise CircuitError(
                 f"circuit {self.circuit.name!r} has no population {name!r}; it has: {', '.join(sorted(self.cells))}"
             )
@@ -393,7 +426,7 @@ class CompiledCircuit:
 
     def memory(self, name: str) -> np.ndarray:
         """A copy of integrator ``name``'s memory, shape (batch, size)."""
-        if name not in self._memory:
+        if not isinstance(name, str) or name not in self._memory:
             raise CircuitError(
                 f"circuit {self.circuit.name!r}: {name!r} is not an integrator; integrators: "
                 f"{', '.join(self._memory) or 'none'}"
@@ -403,7 +436,12 @@ class CompiledCircuit:
     def set_memory(self, name: str, values: np.ndarray) -> None:
         """Overwrite integrator ``name``'s memory (broadcast to (batch, size)) and its rates."""
         self.memory(name)  # checks the name
-        self._memory[name][...] = np.broadcast_to(values, self._memory[name].T.shape).T
+        try:
+            values = np.broadcast_to(np.asarray(values, dtype=self.dtype), self._memory[name].T.shape)
+        except (TypeError, ValueError):
+            raise CircuitError(f"set_memory({name!r}): values must be numbers broadcastable to "
+                               f"{self._memory[name].T.shape}, got {values!r}") from None
+        self._memory[name][...] = values.T
         self._state[self.cells[name]] = self._rates_of_memory(name)
 
     def all_finite(self) -> bool:

@@ -314,6 +314,13 @@ def check_settings(out_dir: Path, settings: dict) -> bool:
                 f"run directory {str(out_dir)!r} holds results with other settings ({where}: {old!r} there, "
                 f"{new!r} now); give another --out, or rerun the command that made it to resume"
             )
+        versions = _normalised(settings.get("versions") or {})
+        changed = sorted(k for k in versions if recorded.get("versions", {}).get(k, versions[k]) != versions[k])
+        if changed:
+            first = changed[0]
+            sys.stderr.write(f"neuronav: warning: {str(out_dir)!r} was started with {first} "
+                             f"{recorded['versions'][first]} (now {versions[first]}); trials computed now may "
+                             "differ from the earlier ones in rounding\n")
         return True
     write_atomic(path, json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2, default=json_default) + "\n")
     return False

@@ -150,14 +150,16 @@ def run_scenario(
     name: str | Scenario, *, backend: str | None = None, trials: int = 1, seed: int = 0,
     overrides: Iterable[str] | dict[str, Any] = (), out_dir: str | Path | None = None,
     video: bool = False, command: list[str] | None = None, config_file: str | Path | None = None,
-    workers: int | None = 1, scheduler: Any = None, chunk_size: int | None = None,
+    workers: int | None = None, scheduler: Any = None, chunk_size: int | None = None,
     progress: bool | None = None, figures: bool = True,
 ) -> dict:
     """Run scenario ``name`` and write its run directory; return the summary (also in summary.json).
 
-    With one worker (the default) all trials run as one batch in this process. More workers, or a
-    Dask ``scheduler``, run chunks of trials in parallel (:mod:`neuronav.sweep`, which also makes the
-    run resumable: rerunning the same command skips the trials already finished).
+    With one worker (the default without a ``scheduler``) all trials run as one batch in this
+    process. More workers, or a Dask ``scheduler`` (default: as many chunks as its threads want), run
+    chunks of trials in parallel (:mod:`neuronav.sweep`, which also makes the run resumable:
+    rerunning the same command skips the trials already finished). Options as in
+    :func:`neuronav.sweep.execute`.
     """
     from neuronav.sweep import execute
 

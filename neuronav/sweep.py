@@ -373,11 +373,10 @@ class _Dask:
 
         if not tasks:
             return
-        futures = {}
-        for task in tasks:
-            future = self.client.submit(run_chunk, task, pure=False)
-            futures[future.key] = (future, task)
-        for future in dask_as_completed([f for f, _ in futures.values()], loop=self.client.loop):
+        # One message for all the tasks; the scheduler hands them out as workers free up.
+        submitted = self.client.map(run_chunk, tasks, pure=False)
+        futures = {future.key: (future, task) for future, task in zip(submitted, tasks)}
+        for future in dask_as_completed(submitted, loop=self.client.loop):
             task = futures[future.key][1]
             if future.status == "error":
                 outcome: Any = future.exception()
@@ -560,10 +559,10 @@ def execute(
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     }
     with DirectoryLock(out):
-        resumed = check_settings(out, settings)
+        check_settings(out, settings)
         remove_stale_temporaries(out)
         context = _Context(instance, name, backend, seed, trials, out, points, figures, command, is_sweep)
-        return context.run(workers, scheduler, chunk_size, progress, video, resumed, settings)
+        return context.run(workers, scheduler, chunk_size, progress, video, settings)
 
 
 class _Context:
@@ -585,7 +584,7 @@ class _Context:
 
     # -- running --------------------------------------------------------------------------------------
     def run(self, workers: int | None, scheduler: Any, chunk_size: int | None, progress: bool | None, video: bool,
-            resumed: bool, settings: dict) -> dict:
+            settings: dict) -> dict:
         missing: dict[int, list[int]] = {}
         for point in self.points:
             folder = self.parts_folder(point)
@@ -601,26 +600,23 @@ class _Context:
         executor: Any = None
         if scheduler is None and workers is None:
             workers = available_cpus() if self.is_sweep else 1
-        if to_run:
-            if scheduler is not None:
+        try:
+            if to_run and scheduler is not None:
                 client, owned = connect(scheduler)
                 executor = _Dask(client, owned)
                 workers = workers or _dask_threads(client)  # --workers, if given, only sizes the chunks
-            elif workers > 1:
-                executor = _LocalPool(workers)
-            else:
-                executor = _InProcess()
-        workers = workers or 1
-        try:
             hint = getattr(self.scenario, "chunk_trials", None)
             hint = hint if isinstance(hint, int) and not isinstance(hint, bool) and hint > 0 else None
-            size = chunk_size_for(self.trials, len(self.points), workers, hint, chunk_size)
+            size = chunk_size_for(self.trials, len(self.points), workers or 1, hint, chunk_size)
+            by_name = _registered(self.scenario, self.name)  # workers then load it from the registry
             tasks = [
-                ChunkTask(self.name if _registered(self.scenario, self.name) else self.scenario, point.index,
-                          point.config, self.backend, first, count, self.seed,
-                          str(self.out / "trial0.mp4") if video and first == 0 else None)
+                ChunkTask(self.name if by_name else self.scenario, point.index, point.config, self.backend,
+                          first, count, self.seed, str(self.out / "trial0.mp4") if video and first == 0 else None)
                 for point in self.points for first, count in plan_chunks(missing[point.index], size)
             ]
+            if executor is None and tasks:
+                # One task, or one worker: here, with no pool to start.
+                executor = _LocalPool(workers) if workers > 1 and len(tasks) > 1 else _InProcess()
             with Progress(total, done=total - to_run, enabled=progress, description=self.name) as bar:
                 self._execute(executor, tasks, bar)
         finally:

@@ -233,3 +233,22 @@ def test_a_scenario_returning_the_wrong_number_of_rows_fails_its_trials(tmp_path
     summary = execute(Short(), trials=2, out_dir=tmp_path, progress=False)
     assert summary["failed_trials"] == 2
     assert read_rows(tmp_path / "trials.csv")[0]["error"].startswith("SimulationError: scenario 'flaky' returned 0")
+
+
+def test_the_progress_bar_counts_trials_and_failures_and_is_off_without_a_terminal(monkeypatch):
+    import io
+
+    from neuronav.progress import Progress, progress_enabled
+
+    monkeypatch.delenv("NEURONAV_PROGRESS", raising=False)
+    stream = io.StringIO()
+    monkeypatch.setattr("sys.stderr", stream)
+    assert not progress_enabled()  # not a terminal
+    with Progress(10, done=2) as bar:
+        bar.advance(3, failed=1)
+    assert stream.getvalue() == "" and (bar.done, bar.failed) == (5, 1)
+    monkeypatch.setenv("NEURONAV_PROGRESS", "1")
+    with Progress(10, done=2, description="demo") as bar:
+        bar.advance(3, failed=1)
+    drawn = stream.getvalue()
+    assert "demo" in drawn and "5/10" in drawn and "failed=1" in drawn
