@@ -162,12 +162,17 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     if not backends:
         raise ConfigError("--backends needs at least one backend name")
     out = args.out or Path("runs") / f"compare-{args.scenario}"
+    # A scenario may need settings that make its backends comparable (one protocol for all);
+    # the user's own --set still wins.
+    hook = getattr(load_scenario(args.scenario), "compare_overrides", None)
+    common = [f"{k}={v}" for k, v in (hook(backends) if callable(hook) else {}).items()]
     summaries = {}
     for backend in backends:
         summaries[backend] = run_scenario(args.scenario, backend=backend, trials=args.trials, seed=args.seed,
-                                          overrides=args.overrides, out_dir=out / backend,
+                                          overrides=[*common, *args.overrides], out_dir=out / backend,
                                           command=["neuronav", *argv], config_file=args.config)
-    metrics = sorted({k for s in summaries.values() for k in s["metrics"]})
+    fixed = ("backend", "trials", "failed_trials", "wall_time_s", "real_time_factor")
+    metrics = sorted({k for s in summaries.values() for k in s["metrics"]} - set(fixed))
     rows = []
     for backend, s in summaries.items():
         # Compute time summed over the run's chunks: the same whether the run was resumed or not.
@@ -176,7 +181,7 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
         rows.append({"backend": backend, "trials": s["trials"], "failed_trials": s["failed_trials"],
                      "wall_time_s": s["wall_time_s"], "real_time_factor": rtf,
                      **{m: s["metrics"].get(m) for m in metrics}})
-    columns = ["backend", "trials", "failed_trials", "wall_time_s", "real_time_factor", *metrics]
+    columns = [*fixed, *metrics]
     lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
     for row in rows:
         lines.append("| " + " | ".join(_cell(row[c]) for c in columns) + " |")

@@ -37,12 +37,28 @@ VERSIONED_PACKAGES = ("neuronav", "numpy", "scipy", "networkx", "matplotlib", "h
                       "dm-control", "pybullet", "dask", "distributed")
 
 
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+# Read once at import: os.umask is process-wide, so it is not touched while tasks run in threads.
+_UMASK = _current_umask()
+
+
+def _readable(path: str) -> None:
+    """mkstemp makes 0600 files; results are for everyone who may read the directory (umask applies)."""
+    os.chmod(path, 0o666 & ~_UMASK)
+
+
 def write_atomic(path: Path, data: bytes | str) -> None:
     """Write ``data`` to ``path`` through a temporary file and a rename."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     mode = "wb" if isinstance(data, bytes) else "w"
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    _readable(temporary)
     try:
         with os.fdopen(handle, mode) as stream:
             stream.write(data)
@@ -124,6 +140,7 @@ def write_timeseries(path: Path, timeseries: dict[str, np.ndarray]) -> None:
 
     path = Path(path)
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    _readable(temporary)
     os.close(handle)
     try:
         with h5py.File(temporary, "w") as store:
@@ -231,6 +248,7 @@ def write_part(path: Path, rows: list[dict], timeseries: dict[str, np.ndarray], 
         if array.dtype.kind in "biufc":  # numbers only: parts are read without pickle
             arrays[_SERIES_PREFIX + key] = array
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    _readable(temporary)
     try:
         with os.fdopen(handle, "wb") as stream:
             np.savez(stream, **arrays)

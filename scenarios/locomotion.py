@@ -111,6 +111,7 @@ class Locomotion(Scenario):
     default_backend = "mujoco"
     records_video = True
     timing_metrics = ("gait_us_per_step", "real_time_factor")
+    chunk_trials = 1  # one body per engine: trials run one after another anyway
 
     def smoke_config(self) -> dict:
         return {"duration_s": 0.3}

@@ -95,6 +95,15 @@ class PathIntegration(Scenario):
             return config.protocol
         return "stone2017" if backend == "kinematic" else "i2bot"
 
+    def aggregate(self, trials: list[dict], config: PathIntegrationConfig) -> dict:
+        """Stone's tortuosity τ = 1 / (1 − mean μ) over all finished trials (stone2017 protocol)."""
+        mus = np.array([t.get("tortuosity_mu", np.nan) for t in trials if t.get("status", "ok") == "ok"], float)
+        mus = mus[np.isfinite(mus)]
+        if not mus.size:
+            return {}
+        mean_mu = mus.mean()
+        return {"tortuosity": float(1.0 / (1.0 - mean_mu)) if mean_mu < 1 else float("nan")}
+
     def compare_overrides(self, backends: list[str]) -> dict:
         """Comparing a physics body with the kinematic one only makes sense under one protocol."""
         return {"protocol": "i2bot"} if any(b != "kinematic" for b in backends) else {}
@@ -148,10 +157,8 @@ class PathIntegration(Scenario):
         if t_in == 0:
             turnback_memory = brain.memory("CPU4")
 
-        rows, mu = trial_metrics(positions, t_out, turnback_memory, config, seeds)
-        finite_mu = mu[np.isfinite(mu)]
-        mean_mu = finite_mu.mean() if finite_mu.size else float("nan")
-        aggregates = {"tortuosity": float(1.0 / (1.0 - mean_mu)) if mean_mu < 1 else float("nan")}
+        rows, _ = trial_metrics(positions, t_out, turnback_memory, config, seeds)
+        aggregates = self.aggregate(rows, config)
         timeseries = {
             "position": np.ascontiguousarray(positions[::k].transpose(1, 0, 2)).astype(np.float32),
             "cpu4_memory": cpu4, "tb1_rates": tb1, "heading_rad": heading,
