@@ -10,8 +10,8 @@ from neuronav.errors import ConfigError, SimulationError
 from neuronav.world import PointAgents, World
 
 
-def engine(count=2, mode="stone", drag=0.15):
-    backend = KinematicBackend()
+def engine(count=2, mode="stone", drag=0.15, calibration=None):
+    backend = KinematicBackend(calibration=calibration)
     backend.load(World(), [PointAgents(count=count, mode=mode, drag=drag)])
     return backend
 
@@ -42,7 +42,7 @@ def test_stone_rotation_accumulates_and_sets_direction():
 
 
 def test_unicycle_straight_and_turning_on_the_spot():
-    backend = engine(count=3, mode="unicycle")
+    backend = engine(count=3, mode="unicycle", calibration=geometric_calibration())
     backend.write({"turn": np.array([0.0, 1.0, -1.0]), "stride": np.full(3, np.radians(20))})
     backend.step(125)  # one second at 8 ms
     position = backend.read(["position"])["position"]
@@ -110,3 +110,15 @@ def test_measured_calibration_round_trip_and_bad_files(tmp_path):
     path.write_text("{not json")
     with pytest.raises(ConfigError, match="cannot be read"):
         load_calibration(path)
+
+
+def test_the_shipped_table_is_measured_on_mujoco_and_has_the_gait_shape():
+    calibration = KinematicBackend().calibration
+    assert calibration.source.startswith("measured on mujoco")
+    stride = calibration.stride_rad.searchsorted(np.radians(15))
+    straight = calibration.turn.searchsorted(0.0)
+    speed, rate = calibration.speed_m_s[:, stride], calibration.turn_rate_rad_s[:, stride]
+    assert speed[straight] > 0.3  # the tripod walks ~0.45 m/s at 15 degrees
+    assert abs(speed[0]) < 0.1 * speed[straight] and abs(speed[-1]) < 0.1 * speed[straight]  # on the spot
+    assert rate[0] > 0.5 and rate[-1] < -0.5  # turn > 0 turns left: the clockwise heading falls
+    assert abs(rate[straight]) < 0.15 * abs(rate[-1])
