@@ -52,16 +52,22 @@ def _readable(path: str) -> None:
     os.chmod(path, 0o666 & ~_UMASK)
 
 
-def write_atomic(path: Path, data: bytes | str) -> None:
-    """Write ``data`` to ``path`` through a temporary file and a rename."""
+def write_atomic(path: Path, data) -> None:
+    """Write ``data`` to ``path`` through a temporary file, an fsync and a rename.
+
+    ``data`` is text, bytes, or a function that writes into the (binary) stream it is given.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    mode = "wb" if isinstance(data, bytes) else "w"
+    mode = "w" if isinstance(data, str) else "wb"
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     _readable(temporary)
     try:
         with os.fdopen(handle, mode) as stream:
-            stream.write(data)
+            if callable(data):
+                data(stream)
+            else:
+                stream.write(data)
             stream.flush()
             os.fsync(stream.fileno())
         os.replace(temporary, path)
@@ -247,18 +253,7 @@ def write_part(path: Path, rows: list[dict], timeseries: dict[str, np.ndarray], 
         array = np.asarray(value)
         if array.dtype.kind in "biufc":  # numbers only: parts are read without pickle
             arrays[_SERIES_PREFIX + key] = array
-    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    _readable(temporary)
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            np.savez(stream, **arrays)
-            stream.flush()
-            os.fsync(stream.fileno())
-        os.replace(temporary, path)
-    except BaseException:
-        if os.path.exists(temporary):
-            os.unlink(temporary)
-        raise
+    write_atomic(path, lambda stream: np.savez(stream, **arrays))
 
 
 def read_part(path: Path, timeseries: bool = True) -> tuple[list[dict], dict[str, np.ndarray], dict]:
