@@ -64,7 +64,6 @@ import tempfile
 from collections.abc import Iterable, Sequence
 
 import numpy as np
-import pybullet as pb
 
 from backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.backend import BackendBase, Capabilities
@@ -72,6 +71,31 @@ from neuronav.body import BodySpec, Camera, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.world import World, WorldObject
+
+
+def _import_quietly():
+    """Import pybullet without the build-time banner it prints from C at import."""
+    import ctypes
+    import sys
+
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    try:
+        with open(os.devnull, "wb") as devnull:
+            os.dup2(devnull.fileno(), 1)
+            os.dup2(devnull.fileno(), 2)
+            import pybullet  # an ImportError is an exception, not a message: nothing is lost
+
+            ctypes.CDLL(None).fflush(None)  # empty C's buffers while they still point at /dev/null
+    finally:
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
+    return pybullet
+
+
+pb = _import_quietly()
 
 GRAVITY_M_S2 = -9.81
 SAFE_MARGIN = 0.7  # keep explicit joint control this far inside its stability limit (1)
