@@ -32,6 +32,9 @@ SPARSE_MAX_DENSITY = 0.1
 # Bytes of pre-drawn noise held per circuit at most.
 NOISE_BUFFER_BYTES = 1 << 25
 NOISE_METHODS = ("gaussian", "table")
+# Below this many agents the noise is re-laid per block as (step, column, agent): row slices
+# then cost the least per step; above it the (word, agent, sample) layout avoids that copy.
+SMALL_BATCH = 32
 # The "table" noise: N(0, 1) quantiles at this many equiprobable levels, indexed by 16 random bits.
 TABLE_LEVELS = 1 << 16
 
@@ -59,7 +62,7 @@ class _Update:
     bias: float
     activation: Callable[..., np.ndarray]
     activation_params: dict
-    noise_columns: slice | None
+    noise_columns: tuple[int, int, float] | None  # (first padded column, cells, std)
     clip: tuple[float, float] | None
     leak_fraction: float  # leaky: dt / tau
     gain: float
@@ -144,16 +147,19 @@ class CompiledCircuit:
             sparse = start >= SPARSE_MIN_CELLS and density <= SPARSE_MAX_DENSITY
         self.sparse = bool(sparse)
 
+        # Each step an agent draws one normal sample per noisy cell, population by population in
+        # update order; every population's block starts at a multiple of 4 (padded), so that the
+        # four 16-bit samples of one 64-bit word always belong to one population (see _draw_noise).
         noisy = [n for n in self.order if circuit.population(n).noise_std > 0]
-        self._noise_columns: dict[str, slice] = {}
+        self._noise_columns: dict[str, tuple[int, int, float]] = {}
         column = 0
         for name in noisy:
             size = circuit.population(name).size
-            self._noise_columns[name] = slice(column, column + size)
-            column += size
-        self._noise_std = np.concatenate(
-            [np.full(circuit.population(n).size, circuit.population(n).noise_std) for n in noisy]
-        ).astype(dtype) if noisy else np.zeros(0, dtype)
+            self._noise_columns[name] = (column, size, float(circuit.population(name).noise_std))
+            column += -(-size // 4) * 4
+        self._noise_width = column
+        stds = {std for _, _, std in self._noise_columns.values()}
+        self._noise_std = stds.pop() if len(stds) == 1 else None  # one level for all: scale once
 
         self._inputs = []
         self._updates: list[_Update] = []
@@ -276,19 +282,17 @@ class CompiledCircuit:
             self._state[self.cells[name]] = self._rates_of_memory(name)
         # SFC64: as good for simulation noise as numpy's default PCG64, and faster here.
         self._rngs = [np.random.Generator(np.random.SFC64(s)) for s in self.seeds]
-        columns = self._noise_std.size
+        columns = self._noise_width
         bytes_per_step = max(1, self.batch * columns * self.dtype.itemsize)
-        # A multiple of 4 steps, so that a block of 16-bit table indices uses whole 64-bit draws
-        # and an agent's noise does not depend on the block size (nor so on the batch size).
-        self._noise_block_steps = 4 * max(1, min(64, NOISE_BUFFER_BYTES // (4 * bytes_per_step)))
+        self._noise_block_steps = max(1, min(256, NOISE_BUFFER_BYTES // bytes_per_step))
         if self.noise_method == "table":
             self._table = normal_quantile_table(self.dtype)
-            # One noise level for every population (the usual case): fold it into the table.
-            self._table_scaled = bool(columns) and np.all(self._noise_std == self._noise_std[0])
-            if self._table_scaled:
-                self._table = self._table * self._noise_std[0]
-        # Laid out (step, cell, agent), like the state.
-        self._noise = np.zeros((self._noise_block_steps, columns, self.batch), self.dtype)
+            if self._noise_std is not None:  # one noise level for every population: fold it in
+                self._table = self._table * self._noise_std
+        self._noise_scaled = self.noise_method == "table" and self._noise_std is not None
+        self._noise_by_cell = self.batch < SMALL_BATCH
+        # (word, agent, sample-in-word): word w of a step holds that step's columns 4w .. 4w + 3.
+        self._noise = np.zeros((self._noise_block_steps * columns // 4, self.batch, 4), self.dtype)
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
         self.steps = 0
 
@@ -298,29 +302,37 @@ class CompiledCircuit:
         return rates if update.clip is None else np.clip(rates, *update.clip, out=rates)
 
     def _draw_noise(self) -> np.ndarray:
+        """This step's noise: (words, agents, 4), column c at [c // 4, :, c % 4]; or (columns, agents)
+        for small batches."""
+        words_per_step = self._noise_width // 4
         if self._noise_step == self._noise_block_steps:
-            steps, columns, batch = self._noise.shape
-            # Each agent draws its (step, cell) block in order from its own stream.
+            words = self._noise_block_steps * words_per_step
+            batch = self.batch
+            # Each agent draws its (step, column) samples in order from its own stream.
             if self.noise_method == "table":
-                # 64 random bits give four 16-bit table indices. Transpose the words to
-                # (word, agent) — a quarter of the data a transpose of the samples would move —
-                # then gather in (word, sample-in-word, agent) order: (step, cell, agent).
-                words = steps * columns // 4
+                # 64 random bits give four 16-bit table indices: transposing the words to
+                # (word, agent) lays the samples out as (word, agent, sample-in-word) at once.
                 drawn = np.stack([rng.bit_generator.random_raw(words) for rng in self._rngs])
                 indices = np.ascontiguousarray(drawn.T).view(np.uint16).reshape(words, batch, 4)
-                self._noise = self._table[indices.transpose(0, 2, 1)].reshape(steps, columns, batch)
-                if not self._table_scaled:
-                    self._noise *= self._noise_std[:, None]
+                self._noise = self._table[indices]
             else:
-                draws = np.empty((batch, steps, columns), self.dtype)
+                draws = np.empty((batch, words * 4), self.dtype)
                 for agent, rng in enumerate(self._rngs):
                     rng.standard_normal(out=draws[agent], dtype=self.dtype)
-                self._noise = np.ascontiguousarray(draws.transpose(1, 2, 0))
-                self._noise *= self._noise_std[:, None]
+                self._noise = np.ascontiguousarray(draws.reshape(batch, words, 4).transpose(1, 0, 2))
+            if self._noise_by_cell:
+                # Few agents: re-lay the block as (step, column, agent) once, so that each step
+                # adds plain row slices (cheapest when the arrays are tiny).
+                steps = self._noise_block_steps
+                self._noise = np.ascontiguousarray(
+                    self._noise.reshape(steps, words_per_step, batch, 4).transpose(0, 1, 3, 2)
+                ).reshape(steps, self._noise_width, batch)
             self._noise_step = 0
-        noise = self._noise[self._noise_step]
+        step = self._noise_step
         self._noise_step += 1
-        return noise
+        if self._noise_by_cell:
+            return self._noise[step]
+        return self._noise[step * words_per_step:(step + 1) * words_per_step]
 
     def step(self, inputs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Advance every agent one step.
@@ -360,7 +372,7 @@ class CompiledCircuit:
             values = [inputs[p] if inputs[p].dtype == dtype else inputs[p].astype(dtype) for p in ports]
             state[cells] = encoder(*values, **params).T
         snapshot = state.copy() if self._needs_snapshot else None
-        noise = self._draw_noise() if self._noise_std.size else None
+        noise = self._draw_noise() if self._noise_width else None
 
         for u in self._updates:
             net = None
@@ -390,8 +402,19 @@ class CompiledCircuit:
                 if u.kind == "leaky":
                     previous = state[u.cells]
                     rates = previous + u.leak_fraction * (rates - previous)
-            if u.noise_columns is not None:
-                rates += noise[u.noise_columns]
+            if u.noise_columns is not None and self._noise_by_cell:
+                start, size, std = u.noise_columns
+                rates += noise[start:start + size] if self._noise_scaled else std * noise[start:start + size]
+            elif u.noise_columns is not None:
+                start, size, std = u.noise_columns
+                block = noise[start >> 2:(start + size + 3) >> 2].transpose(0, 2, 1)  # (words, 4, agents)
+                if not self._noise_scaled:
+                    block = std * block
+                if size & 3:
+                    rates += block.reshape(-1, rates.shape[1])[:size]
+                else:
+                    by_word = rates.reshape(size >> 2, 4, -1)  # a view: adding to it adds to rates
+                    by_word += block
             if u.clip is not None:
                 rates.clip(*u.clip, out=rates)
             state[u.cells] = rates

@@ -138,11 +138,14 @@ class PathIntegration(Scenario):
         tb1 = np.zeros((recorded, samples, 8), np.float32)
         heading = np.zeros((recorded, samples), np.float32)
         inbound_acceleration = np.full((n, 1), config.inbound_acceleration)
+        # Step-major copies: each step's commands for all agents are then contiguous.
+        rotation_by_step = np.ascontiguousarray(rotation.T)[:, :, None]
+        acceleration_by_step = np.ascontiguousarray(acceleration.T)[:, :, None]
         for t in range(t_out + t_in):
             sensed = engine.read(("heading", "velocity"))
             motor = brain.step(sensed)["motor"]
             if t < t_out:
-                engine.write({"rotation": rotation[:, t:t + 1], "acceleration": acceleration[:, t:t + 1]})
+                engine.write({"rotation": rotation_by_step[t], "acceleration": acceleration_by_step[t]})
             else:
                 if t == t_out:
                     turnback_memory = brain.memory("CPU4")

@@ -293,3 +293,18 @@ def test_leaky_step_longer_than_tau_is_refused():
     c.add_population("r", 1, kind="leaky", tau_s=1e-3)
     with pytest.raises(CircuitError, match="longer than half its tau_s"):
         c.compile(dt_s=3e-3)
+
+
+@pytest.mark.parametrize("noise_method", ["gaussian", "table"])
+def test_large_batches_lay_noise_out_differently_but_draw_the_same(noise_method):
+    """Batches of 32+ keep noise as (word, agent, sample); small ones as (step, column, agent)."""
+    steps, batch, seed = 40, 40, 3
+    inputs = route_inputs(batch, steps, seed=2)
+    big = stone2017(noise=0.1).compile(batch=batch, seed=seed, noise_method=noise_method)
+    assert not big._noise_by_cell
+    batched = run(big, inputs)
+    for agent in (0, 17, 39):
+        single_inputs = [{k: v[agent:agent + 1] for k, v in step.items()} for step in inputs]
+        small = stone2017(noise=0.1).compile(batch=1, seed=seed + agent, noise_method=noise_method)
+        assert small._noise_by_cell
+        np.testing.assert_allclose(batched[:, agent], run(small, single_inputs)[:, 0], rtol=0, atol=1e-12)
