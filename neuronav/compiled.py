@@ -32,6 +32,20 @@ SPARSE_MAX_DENSITY = 0.1
 # Bytes of pre-drawn noise held per circuit at most.
 NOISE_BUFFER_BYTES = 1 << 25
 NOISE_METHODS = ("gaussian", "table")
+
+
+def _clip_ufunc():
+    """numpy's ``clip`` ufunc itself: ``ndarray.clip`` adds about a microsecond of Python per call,
+    which shows at small batches. Falls back to the method where the ufunc is not exposed."""
+    for module in ("_core", "core"):
+        ufunc = getattr(getattr(np, module, None), "umath", None)
+        ufunc = getattr(ufunc, "clip", None)
+        if isinstance(ufunc, np.ufunc):
+            return ufunc
+    return lambda x, low, high, out: x.clip(low, high, out=out)
+
+
+_clip = _clip_ufunc()
 # Below this many agents the noise is re-laid per block as (step, column, agent): row slices
 # then cost the least per step; above it the (word, agent, sample) layout avoids that copy.
 SMALL_BATCH = 32
@@ -148,16 +162,18 @@ class CompiledCircuit:
         self.sparse = bool(sparse)
 
         # Each step an agent draws one normal sample per noisy cell, population by population in
-        # update order; every population's block starts at a multiple of 4 (padded), so that the
-        # four 16-bit samples of one 64-bit word always belong to one population (see _draw_noise).
+        # update order (those of 4k cells first), padded to whole 64-bit words of four 16-bit
+        # samples; then most populations read whole words (see _draw_noise and step).
         noisy = [n for n in self.order if circuit.population(n).noise_std > 0]
+        # Populations of 4k cells first (each then owns whole 64-bit words), the others packed after.
+        noisy.sort(key=lambda n: circuit.population(n).size % 4 != 0)
         self._noise_columns: dict[str, tuple[int, int, float]] = {}
         column = 0
         for name in noisy:
             size = circuit.population(name).size
             self._noise_columns[name] = (column, size, float(circuit.population(name).noise_std))
-            column += -(-size // 4) * 4
-        self._noise_width = column
+            column += size
+        self._noise_width = -(-column // 4) * 4  # whole words per step
         stds = {std for _, _, std in self._noise_columns.values()}
         self._noise_std = stds.pop() if len(stds) == 1 else None  # one level for all: scale once
 
@@ -389,13 +405,13 @@ class CompiledCircuit:
                 net += u.bias
             if u.kind == "integrator":
                 if u.drive_clip is not None:
-                    net.clip(*u.drive_clip, out=net)
+                    _clip(net, *u.drive_clip, out=net)
                 memory = self._memory[u.name]
                 memory += u.gain * net
                 if u.leak:
                     memory -= u.leak
                 if u.memory_clip is not None:
-                    memory.clip(*u.memory_clip, out=memory)
+                    _clip(memory, *u.memory_clip, out=memory)
                 rates = u.activation(memory.copy(), **u.activation_params)
             else:
                 rates = u.activation(net, **u.activation_params)
@@ -410,13 +426,14 @@ class CompiledCircuit:
                 block = noise[start >> 2:(start + size + 3) >> 2].transpose(0, 2, 1)  # (words, 4, agents)
                 if not self._noise_scaled:
                     block = std * block
-                if size & 3:
-                    rates += block.reshape(-1, rates.shape[1])[:size]
+                if size & 3 or start & 3:
+                    offset = start & 3
+                    rates += block.reshape(-1, rates.shape[1])[offset:offset + size]
                 else:
                     by_word = rates.reshape(size >> 2, 4, -1)  # a view: adding to it adds to rates
                     by_word += block
             if u.clip is not None:
-                rates.clip(*u.clip, out=rates)
+                _clip(rates, *u.clip, out=rates)
             state[u.cells] = rates
         self.steps += 1
         return {port: state[cells].T.copy() for port, cells in self._outputs}
