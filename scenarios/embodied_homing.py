@@ -27,8 +27,9 @@ from bodies.desert_ant import desert_ant
 from bodies.gaits import make_gait
 from brains.cx import decode_home_vector, stone2017
 from neuronav import registry
-from neuronav.loop import AgentLoop, Clocks, Hook
+from neuronav.loop import AgentLoop, Clocks
 from neuronav.scenario import ScenarioResult
+from neuronav.video import CameraRecorder, write_video
 from neuronav.world import Ground, PointAgents, World
 
 CYCLE_S = 0.64
@@ -91,17 +92,6 @@ VIDEO_EVERY = 16
 VIDEO_FPS = 30
 
 
-class FollowVideo(Hook):
-    """Grabs the backend's ``follow`` camera every few control steps."""
-
-    def __init__(self) -> None:
-        self.frames: list[np.ndarray] = []
-
-    def after_step(self, loop: AgentLoop) -> None:
-        if loop.control_steps % VIDEO_EVERY == 1:
-            self.frames.append(loop.backend.render("follow"))
-
-
 def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=None) -> ScenarioResult:
     """All trials of the embodied protocol, one after another (one body per engine).
 
@@ -144,7 +134,7 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
     started = time.perf_counter()
     with engine:
         engine.load(world, [body])
-        video = FollowVideo() if video_path is not None else None
+        video = CameraRecorder("follow", every=VIDEO_EVERY) if video_path is not None else None
         loop = AgentLoop(engine, gait, clocks, steering=brain, hooks=[video] if video else [])
         loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - heading0)
 
@@ -158,8 +148,6 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
         final = engine.read(("position",))["position"][0]
     wall_s = time.perf_counter() - started
     if video is not None:
-        from scenarios.locomotion import write_video
-
         write_video(video_path, video.frames, fps=VIDEO_FPS)
     log = {k: list(v) for k, v in brain.log.items()}
     log["time_s"].append(np.array(loop.time_s))

@@ -51,6 +51,7 @@ from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.config import field
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.video import CameraRecorder, write_video
 from neuronav.world import Ground, World
 
 TERRAINS = {
@@ -213,15 +214,14 @@ class LocomotionRecorder(Hook):
     the terrain height under the centre.
     """
 
-    def __init__(self, body, steps: int, control_dt_s: float, video: bool) -> None:
+    def __init__(self, body, steps: int, control_dt_s: float) -> None:
         names = list(body.joint_names)
         self.centre_m = body_centre_m(body)
         self.middle_right = [names.index(f"{MIDDLE_RIGHT}_{j}") for j in ("ThCz", "CTr", "FTi")]
         contact_sites = [s.name for s in body.sites_of_kind("contact")]
         self.claws = [i for i, n in enumerate(contact_sites) if n.split("_")[0] in LEGS]
-        self.control_dt_s, self.video = control_dt_s, video
+        self.control_dt_s = control_dt_s
         self.work_j = self.torque_sum = 0.0
-        self.frames: list[np.ndarray] = []
         self.record = {
             "position_m": np.zeros((steps + 1, 3)), "root_m": np.zeros((steps + 1, 3)),
             "up_axis": np.zeros((steps + 1, 3)), "ground_m": np.zeros(steps + 1), "heading_rad": np.zeros(steps + 1),
@@ -249,8 +249,6 @@ class LocomotionRecorder(Hook):
         self.record["mr_torques_nm"][t] = torque[self.middle_right]
         self.record["claw_force_n"][t] = np.linalg.norm(sensed["contact_force"][0, self.claws], axis=1)
         self._pose(loop, t + 1)
-        if self.video and t % 4 == 0:  # 31 frames per second of 8 ms steps
-            self.frames.append(loop.backend.render("follow"))
 
     def _pose(self, loop: AgentLoop, index: int) -> None:
         sensed = loop.backend.read(("body_pos", "body_quat", "heading"))
@@ -274,11 +272,13 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
                     brain_dt_s=config.control_dt_s)
     yaw0 = float(rng.uniform(-config.initial_yaw_jitter_rad, config.initial_yaw_jitter_rad))
     world = build_world(config, seed)
-    recorder = LocomotionRecorder(body, steps, config.control_dt_s, video=video_path is not None)
+    recorder = LocomotionRecorder(body, steps, config.control_dt_s)
+    # 31 frames per second of 8 ms gait steps: real time.
+    camera = CameraRecorder("follow", every=4) if video_path is not None else None
     start_m = start_position_m(world.ground, body, yaw0, rng)
     with registry.load("backend", backend_name)(timestep_s=config.timestep_s) as engine:
         engine.load(world, [body])
-        loop = AgentLoop(engine, build_gait(config, body), clocks, hooks=[recorder],
+        loop = AgentLoop(engine, build_gait(config, body), clocks, hooks=[recorder] + ([camera] if camera else []),
                          turn=config.turn, stride_rad=np.radians(config.stride_deg))
         loop.reset(seed=seed, position_m=start_m, yaw_rad=yaw0)
         started = time.perf_counter()
@@ -286,7 +286,7 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
         wall_s = time.perf_counter() - started
     recorder.record["ground_m"] = ground_height_m(world.ground, recorder.record["position_m"][:, :2])
     if video_path is not None:
-        write_video(video_path, recorder.frames, fps=1.0 / (4 * config.control_dt_s))
+        write_video(video_path, camera.frames, fps=1.0 / (4 * config.control_dt_s))
     metrics = trial_metrics(recorder.record, config, body.total_mass_kg, recorder.work_j,
                             recorder.torque_sum / max(steps, 1), loop.gait_time_s / max(steps, 1), wall_s)
     return metrics, recorder.record
@@ -346,18 +346,3 @@ def trial_metrics(record: dict, config: LocomotionConfig, mass_kg: float, work_j
         "real_time_factor": float(config.duration_s / wall_s) if wall_s > 0 else np.nan,
         "fell": fell,
     }
-
-
-def write_video(path: Path, frames: list[np.ndarray], fps: float) -> None:
-    """Write RGB frames to an MP4 (imageio with its ffmpeg plugin)."""
-    import imageio.v2 as imageio
-
-    if not frames:
-        return
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.with_suffix(".partial.mp4")
-    with imageio.get_writer(temporary, fps=fps, codec="libx264", quality=7, macro_block_size=8) as writer:
-        for frame in frames:
-            writer.append_data(frame)
-    temporary.replace(path)
