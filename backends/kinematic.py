@@ -227,10 +227,11 @@ class KinematicBackend(BackendBase):
     # -- helpers -------------------------------------------------------------------------------
     def _direction(self) -> np.ndarray:
         """Unit vectors of the headings, (sin h, cos h), shape (batch, 2)."""
-        direction = np.empty((self.heading.size, 2))
-        np.sin(self.heading, out=direction[:, 0])
-        np.cos(self.heading, out=direction[:, 1])
-        return direction
+        # Computed into contiguous rows (strided output halves numpy's trig throughput).
+        direction = np.empty((2, self.heading.size))
+        np.sin(self.heading, out=direction[0])
+        np.cos(self.heading, out=direction[1])
+        return direction.T
 
     def _require(self) -> PointAgents:
         if self._agents is None:

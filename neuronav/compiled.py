@@ -46,8 +46,9 @@ def _clip_ufunc():
 
 
 _clip = _clip_ufunc()
-# Below this many agents the noise is re-laid per block as (step, column, agent): row slices
-# then cost the least per step; above it the (word, agent, sample) layout avoids that copy.
+# Gaussian noise below this many agents is re-laid per block as (step, column, agent): row slices
+# then cost the least per step; above it the (word, agent, sample) layout avoids that copy. Table
+# noise is always gathered straight into (step, column, agent).
 SMALL_BATCH = 32
 # The "table" noise: N(0, 1) quantiles at this many equiprobable levels, indexed by 16 random bits.
 TABLE_LEVELS = 1 << 16
@@ -306,7 +307,7 @@ class CompiledCircuit:
             if self._noise_std is not None:  # one noise level for every population: fold it in
                 self._table = self._table * self._noise_std
         self._noise_scaled = self.noise_method == "table" and self._noise_std is not None
-        self._noise_by_cell = self.batch < SMALL_BATCH
+        self._noise_by_cell = self.batch < SMALL_BATCH or self.noise_method == "table"
         # (word, agent, sample-in-word): word w of a step holds that step's columns 4w .. 4w + 3.
         self._noise = np.zeros((self._noise_block_steps * columns // 4, self.batch, 4), self.dtype)
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
@@ -318,31 +319,36 @@ class CompiledCircuit:
         return rates if update.clip is None else np.clip(rates, *update.clip, out=rates)
 
     def _draw_noise(self) -> np.ndarray:
-        """This step's noise: (words, agents, 4), column c at [c // 4, :, c % 4]; or (columns, agents)
-        for small batches."""
+        """This step's noise: (columns, agents) for table noise and small batches; otherwise
+        (words, agents, 4), column c at [c // 4, :, c % 4]."""
         words_per_step = self._noise_width // 4
         if self._noise_step == self._noise_block_steps:
             words = self._noise_block_steps * words_per_step
             batch = self.batch
             # Each agent draws its (step, column) samples in order from its own stream.
             if self.noise_method == "table":
-                # 64 random bits give four 16-bit table indices: transposing the words to
-                # (word, agent) lays the samples out as (word, agent, sample-in-word) at once.
-                drawn = np.stack([rng.bit_generator.random_raw(words) for rng in self._rngs])
+                # 64 random bits give four 16-bit table indices. The words are transposed to
+                # (word, agent) whole (cheaper than moving 16-bit pieces), and the gather reads
+                # them through a (word, sample-in-word, agent) view, so the gathered noise comes
+                # out as (step, column, agent): each step then adds contiguous row slices.
+                drawn = np.empty((batch, words), np.uint64)
+                for agent, rng in enumerate(self._rngs):
+                    drawn[agent] = rng.bit_generator.random_raw(words)
                 indices = np.ascontiguousarray(drawn.T).view(np.uint16).reshape(words, batch, 4)
-                self._noise = self._table[indices]
+                self._noise = self._table[indices.transpose(0, 2, 1)].reshape(
+                    self._noise_block_steps, self._noise_width, batch)
             else:
                 draws = np.empty((batch, words * 4), self.dtype)
                 for agent, rng in enumerate(self._rngs):
                     rng.standard_normal(out=draws[agent], dtype=self.dtype)
                 self._noise = np.ascontiguousarray(draws.reshape(batch, words, 4).transpose(1, 0, 2))
-            if self._noise_by_cell:
-                # Few agents: re-lay the block as (step, column, agent) once, so that each step
-                # adds plain row slices (cheapest when the arrays are tiny).
-                steps = self._noise_block_steps
-                self._noise = np.ascontiguousarray(
-                    self._noise.reshape(steps, words_per_step, batch, 4).transpose(0, 1, 3, 2)
-                ).reshape(steps, self._noise_width, batch)
+                if self._noise_by_cell:
+                    # Few agents: re-lay the block as (step, column, agent) once, so that each step
+                    # adds plain row slices (cheapest when the arrays are tiny).
+                    steps = self._noise_block_steps
+                    self._noise = np.ascontiguousarray(
+                        self._noise.reshape(steps, words_per_step, batch, 4).transpose(0, 1, 3, 2)
+                    ).reshape(steps, self._noise_width, batch)
             self._noise_step = 0
         step = self._noise_step
         self._noise_step += 1

@@ -245,9 +245,8 @@ def stone_tortuosity_mu(distances: np.ndarray, steps: np.ndarray, home_distance)
 def trial_metrics(positions: np.ndarray, t_out: int, turnback_memory: np.ndarray,
                   config: PathIntegrationConfig, seeds: list[int]) -> tuple[list[dict], np.ndarray]:
     """Per-trial metric rows and Stone's μ per trial from the positions, shape (T + 1, trials, 2)."""
-    distance = np.hypot(positions[..., 0], positions[..., 1])  # (T + 1, n)
-    homing = distance[t_out:]
-    home_distance = distance[t_out]
+    homing = np.hypot(positions[t_out:, :, 0], positions[t_out:, :, 1])  # distance to the nest, (T_in + 1, n)
+    home_distance = homing[0]
     steps = np.diff(positions[t_out:], axis=0)
     step_lengths = np.hypot(steps[..., 0], steps[..., 1])
     true_home = np.arctan2(-positions[t_out, :, 0], -positions[t_out, :, 1])

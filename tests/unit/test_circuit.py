@@ -297,11 +297,12 @@ def test_leaky_step_longer_than_tau_is_refused():
 
 @pytest.mark.parametrize("noise_method", ["gaussian", "table"])
 def test_large_batches_lay_noise_out_differently_but_draw_the_same(noise_method):
-    """Batches of 32+ keep noise as (word, agent, sample); small ones as (step, column, agent)."""
+    """Gaussian noise for batches of 32+ is kept as (word, agent, sample), small batches and all table
+    noise as (step, column, agent); every layout gives each agent the draws of its own stream."""
     steps, batch, seed = 40, 40, 3
     inputs = route_inputs(batch, steps, seed=2)
     big = stone2017(noise=0.1).compile(batch=batch, seed=seed, noise_method=noise_method)
-    assert not big._noise_by_cell
+    assert big._noise_by_cell == (noise_method == "table")
     batched = run(big, inputs)
     for agent in (0, 17, 39):
         single_inputs = [{k: v[agent:agent + 1] for k, v in step.items()} for step in inputs]
