@@ -10,8 +10,13 @@ leading batch dimension of 1 (J hinge joints, C contact sites, O/W odour/wind si
 ``body_linvel`` (3,) m/s, ``body_angvel`` (3,) rad/s, ``heading`` (1,) rad clockwise from +y,
 ``velocity`` (2,) m/s and ``position`` (2,) m in the world xy plane, ``odour_sites`` (O, 3) and
 ``wind_sites`` (W, 3); they accept ``joint_targets`` (J,) rad for position-controlled joints
-(torque = kp (target - q) - kd q', clipped to each joint's max torque). ``reset(seed,
-position_m=(x, y), yaw_rad=...)`` puts the body at its rest pose above the terrain.
+(torque = kp (target - q) - kd q', clipped to each joint's max torque), and ``adhesion`` (C,)
+in [0, 1], the fraction of the world's ``adhesion_n`` each touching adhesive contact site gets (all
+1 after a reset: I2Bot's rule, force while touching; a controller can switch pads off in swing).
+``reset(seed, position_m=(x, y), yaw_rad=...)`` puts the body at its rest pose above the terrain;
+``position_m=(x, y, z)`` puts the root at that height instead, and ``pitch_rad`` tilts the body
+nose-up about its lateral axis (π/2: head up, belly toward +x), e.g. to start it on a wall
+(:func:`start_pose`).
 """
 
 from __future__ import annotations
@@ -22,9 +27,51 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from neuronav.errors import PortError
+from neuronav.errors import ConfigError, PortError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.world import World
+
+
+def adhesion_port(contact_sites: int) -> MotorSpec:
+    """The ``adhesion`` command of a physics backend whose body has ``contact_sites`` contact sites."""
+    return MotorSpec("adhesion", (contact_sites,), "fraction of adhesion_n", range=(0.0, 1.0))
+
+
+def start_pose(position_m, yaw_rad: float, pitch_rad: float, where: str) -> tuple[np.ndarray, bool, np.ndarray]:
+    """A physics backend's reset pose from the protocol's arguments.
+
+    Parameters
+    ----------
+    position_m : (x, y) or (x, y, z)
+        Where the root starts; without z the backend stands the body on the terrain.
+    yaw_rad, pitch_rad : float
+        Counter-clockwise turn about world z from +x, and nose-up tilt about the body's lateral
+        axis, applied first.
+    where : str
+        The backend's name, for error messages.
+
+    Returns
+    -------
+    position : ndarray, shape (3,)
+        x, y and z (0 when not given).
+    z_given : bool
+    quat : ndarray, shape (4,)
+        (w, x, y, z) rotation: the pitch, then the yaw.
+
+    Raises
+    ------
+    ConfigError
+        A position of another size, or anything not finite.
+    """
+    position = np.asarray(position_m, dtype=float).reshape(-1)
+    if position.size not in (2, 3) or not np.isfinite(position).all() or not np.isfinite([yaw_rad, pitch_rad]).all():
+        raise ConfigError(f"{where} reset: position_m must be finite (x, y) or (x, y, z) in m, yaw_rad and "
+                          f"pitch_rad finite, got {position_m!r}, {yaw_rad!r}, {pitch_rad!r}")
+    cy, sy = np.cos(yaw_rad / 2.0), np.sin(yaw_rad / 2.0)
+    cp, sp = np.cos(pitch_rad / 2.0), np.sin(pitch_rad / 2.0)
+    # (cy, 0, 0, sy) * (cp, 0, -sp, 0): nose-up is a negative turn about the body's +y (left) axis.
+    quat = np.array([cy * cp, sy * sp, -cy * sp, sy * cp])
+    return np.append(position, 0.0)[:3], position.size == 3, quat
 
 
 @dataclass(frozen=True)
@@ -88,6 +135,14 @@ class BackendBase:
                     f"available: {', '.join(sorted(known))}"
                 )
         return names
+
+    def _adhesion_fractions(self, command: np.ndarray) -> np.ndarray:
+        """A checked ``adhesion`` command of one body: its (C,) fractions, each in [0, 1]."""
+        fractions = np.asarray(command, dtype=float)[0]
+        if not (np.isfinite(fractions).all() and fractions.min() >= 0.0 and fractions.max() <= 1.0):
+            raise PortError(f"backend {self.capabilities.name!r}: adhesion takes fractions in [0, 1] "
+                            f"(of the world's adhesion_n), got {fractions.tolist()}")
+        return fractions.copy()
 
     def _check_write(self, commands: dict[str, np.ndarray], batch: int) -> dict[str, np.ndarray]:
         specs = {m.name: m for m in self.capabilities.motors}

@@ -17,23 +17,25 @@ the middle legs), not at the root, which sits at the front of the thorax and swi
 Metrics per trial: ``forward_speed_m_s`` (displacement along the initial heading per second),
 ``lateral_drift_m`` (sideways displacement at the end, + = left), ``turn_rate_rad_s`` (heading change
 per second, counter-clockwise positive, so turn > 0 gives a positive rate), body height mean and
-variance, roll and pitch variance, ``mean_abs_torque_nm``, ``cost_of_transport`` (mechanical work
+variance, roll and pitch variance (these five are NaN for a start on the wall, where heading, roll
+and pitch against the floor mean nothing), ``mean_abs_torque_nm``, ``cost_of_transport`` (mechanical work
 Σ|τ·q̇|dt over m·g·distance), ``climb_height_m`` (highest centre height above its start) and
 ``climb_final_m`` (the same at the end: below the peak when the ant slid back), ``gait_us_per_step``
 (time to compute one gait sample), ``real_time_factor`` and ``fell`` (the body's up axis tipped more
 than 80° away from the floor's normal and, near the wall, from the wall's; or the centre dropped
 below 0.1 m above the ground under it: :func:`fell_over`); ``success`` = not fell.
 
-Wall (``terrain=wall``): a vertical wall faces the ant 1 m ahead (at x = 1 m; the ant starts at
-the origin heading +x, so its head reaches the wall after about 0.9 m). With ``adhesion_n`` > 0 the
-backend presses every touching claw into the surface it touches, floor included (the I2Bot rule:
-force while in contact). With ``wall_posture`` the gait holds the head raised, the antennae folded
-up and back and the gaster raised, and swings the front legs about a point 17° further forward,
-so that the front claws, not the head and the antennae (whose tips are contact sites too, and would
-be glued to the wall), meet the wall first; otherwise the legs walk the chosen gait unchanged.
-``bodies/desert_ant/README.md`` ("Wall climbing") says what happens: with these forces the ant gets
-its front legs onto the wall and rears up (PyBullet) or stays at its foot (MuJoCo); it does not
-climb the wall.
+Wall (``terrain=wall``): a vertical wall faces -x at x = 1 m. As in I2Bot's climbing world the ant
+starts on it (``wall_start=wall``): head up, belly to the wall, its centre ``wall_start_height_m``
+up; ``wall_start=floor`` starts it at the origin heading +x, walking at the wall (its head reaches
+the wall after about 0.9 m), and with ``wall_posture`` holds the head raised, the antennae folded
+and the gaster raised and swings the front legs 17° further forward, so that the front claws meet
+the wall first. With ``adhesion_n`` > 0 the backend presses touching claws into the surface they
+touch: every touching claw (``adhesion_rule=touch``, I2Bot's rule) or only the claws of legs in
+stance (``adhesion_rule=stance``: the :class:`StanceAdhesion` hook switches each pad off while its
+leg swings). ``bodies/desert_ant/README.md`` ("Wall climbing") has the measured sweep: the IK tripod
+climbs on both engines with pads released in swing from 200 N, and on PyBullet under the touch
+rule only in a band of forces (more force is not better, as in the paper).
 """
 
 from __future__ import annotations
@@ -74,6 +76,11 @@ WALL_POSTURE_RAD = {
 # ... and the front legs' hip swing centred 0.3 rad (17°) further forward, so their claws reach the wall
 # ahead of the raised head (at rest they end level with the root, 0.07 m behind the raised head's front).
 WALL_OFFSETS_RAD = {"FL_ThCz": 0.3, "FR_ThCz": 0.3}
+WALL_STARTS = ("wall", "floor")
+ADHESION_RULES = ("touch", "stance")
+# Starting on the wall: the standing body pressed this far toward the wall, so that every claw
+# touches it at the first step (at exactly the standing height they hang 0.5 mm off it).
+WALL_PRESS_M = 0.002
 
 
 @dataclass
@@ -94,7 +101,13 @@ class LocomotionConfig:
     leg_scale: float = field(1.0, "all leg lengths times this factor", min_exclusive=0.0, max=3.0)
     initial_yaw_jitter_rad: float = field(0.05, "initial yaw uniform in ±this", min=0.0, max=np.pi)
     roughness_seed_offset: int = field(0, "added to the trial seed to pick the terrain", min=0)
-    wall_posture: bool = field(True, "on the wall: head and gaster up, antennae folded, front legs reach further")
+    wall_start: str = field("wall", "terrain=wall: start on the wall, head up (as in I2Bot's climbing world), "
+                            "or on the floor walking at it", choices=WALL_STARTS)
+    wall_start_height_m: float = field(1.5, "wall_start=wall: the body centre's start height (m)", min=0.8, max=6.0)
+    adhesion_rule: str = field("touch", "which claws adhesion presses: touch = every touching claw (I2Bot), "
+                               "stance = only those of legs in stance (pads released at lift-off)",
+                               choices=ADHESION_RULES)
+    wall_posture: bool = field(True, "wall_start=floor: head and gaster up, antennae folded, front legs reach further")
 
     def __post_init__(self) -> None:
         # Checked here, not only when running, so that a bad pair is a ConfigError (CLI exit 2) up front.
@@ -137,9 +150,43 @@ class Locomotion(Scenario):
 def build_gait(config: LocomotionConfig, body: BodySpec):
     """The configured gait; on the wall (with ``wall_posture``) holding the climbing posture."""
     gait = make_gait(config.gait, body)
-    if config.terrain == "wall" and config.wall_posture:
+    if config.terrain == "wall" and config.wall_start == "floor" and config.wall_posture:
         gait = PostureGait(gait, WALL_POSTURE_RAD, WALL_OFFSETS_RAD)
     return gait
+
+
+def start_pose_kwargs(config: LocomotionConfig, body: BodySpec, ground: Ground, yaw_rad: float,
+                      rng: np.random.Generator) -> dict:
+    """The backend reset pose of one trial.
+
+    On the floor (and walking at the wall): the root on the ground near the origin, turned by
+    ``yaw_rad`` (:func:`start_position_m`). Starting on the wall: head up, belly to the wall (the body
+    pitched 90° nose-up), the root its standing height off the wall face (less ``WALL_PRESS_M``) and
+    high enough that the body centre is ``wall_start_height_m`` up; no yaw.
+    """
+    if config.terrain != "wall" or config.wall_start == "floor":
+        return {"position_m": start_position_m(ground, body, yaw_rad, rng), "yaw_rad": yaw_rad}
+    centre = body_centre_m(body)
+    # Pitched nose-up by 90°, body x points up (+z) and body z toward -x: a root-frame point (a, b, c)
+    # sits at root + (-c, b, a).
+    root_x = ground.wall_distance_m - body.spawn_height_m + WALL_PRESS_M
+    root_z = config.wall_start_height_m - centre[0]
+    return {"position_m": (root_x, 0.0, root_z), "yaw_rad": 0.0, "pitch_rad": np.pi / 2}
+
+
+class StanceAdhesion(Hook):
+    """``adhesion_rule=stance``: before each control step, switch each claw's pad on while its leg is
+    in stance and off while it swings (insects detach their pads at lift-off); other contact sites
+    stay on (they are not adhesive anyway)."""
+
+    def __init__(self, body: BodySpec) -> None:
+        sites = [s.name for s in body.sites_of_kind("contact")]
+        self.leg_of_site = [LEGS.index(n.split("_")[0]) if n.split("_")[0] in LEGS else -1 for n in sites]
+
+    def before_step(self, loop: AgentLoop) -> None:
+        swing = loop.gait.in_swing(loop.gait.step_index)
+        on = np.array([1.0 if leg < 0 or not swing[leg] else 0.0 for leg in self.leg_of_site])
+        loop.backend.write({"adhesion": on[None, :]})
 
 
 def build_world(config: LocomotionConfig, seed: int) -> World:
@@ -275,12 +322,13 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
     recorder = LocomotionRecorder(body, steps, config.control_dt_s)
     # 31 frames per second of 8 ms gait steps: real time.
     camera = CameraRecorder("follow", every=4) if video_path is not None else None
-    start_m = start_position_m(world.ground, body, yaw0, rng)
+    pose = start_pose_kwargs(config, body, world.ground, yaw0, rng)
+    hooks = [recorder] + ([StanceAdhesion(body)] if config.adhesion_rule == "stance" else [])
     with registry.load("backend", backend_name)(timestep_s=config.timestep_s) as engine:
         engine.load(world, [body])
-        loop = AgentLoop(engine, build_gait(config, body), clocks, hooks=[recorder] + ([camera] if camera else []),
+        loop = AgentLoop(engine, build_gait(config, body), clocks, hooks=hooks + ([camera] if camera else []),
                          turn=config.turn, stride_rad=np.radians(config.stride_deg))
-        loop.reset(seed=seed, position_m=start_m, yaw_rad=yaw0)
+        loop.reset(seed=seed, **pose)
         started = time.perf_counter()
         loop.run(config.duration_s)
         wall_s = time.perf_counter() - started
@@ -328,16 +376,20 @@ def trial_metrics(record: dict, config: LocomotionConfig, mass_kg: float, work_j
     displacement = end - start
     yaw = np.unwrap(np.pi / 2 - heading)
     height = position[:, 2]
-    distance_m = float(np.linalg.norm(np.diff(position[:, :2], axis=0), axis=1).sum())
     wall_x_m = TERRAINS["wall"]["wall_distance_m"] if config.terrain == "wall" else None
     fell = fell_over(record, wall_x_m)
+    # Heading, roll and pitch are taken against the floor: meaningless for a body standing on the wall.
+    on_floor = 1.0 if config.terrain != "wall" or config.wall_start == "floor" else np.nan
+    travelled = position[:, :2] if on_floor == 1.0 else position  # on the wall the way is mostly up
+    distance_m = float(np.linalg.norm(np.diff(travelled, axis=0), axis=1).sum())
     return {
         "success": not fell, "status": "ok", "error": "",
-        "forward_speed_m_s": float(displacement @ forward / config.duration_s),
-        "lateral_drift_m": float(displacement @ left),
-        "turn_rate_rad_s": float((yaw[-1] - yaw[0]) / config.duration_s),
+        "forward_speed_m_s": on_floor * float(displacement @ forward / config.duration_s),
+        "lateral_drift_m": on_floor * float(displacement @ left),
+        "turn_rate_rad_s": on_floor * float((yaw[-1] - yaw[0]) / config.duration_s),
         "body_height_mean_m": float(height.mean()), "body_height_var_m2": float(height.var()),
-        "roll_var_rad2": float(np.var(record["roll_rad"])), "pitch_var_rad2": float(np.var(record["pitch_rad"])),
+        "roll_var_rad2": on_floor * float(np.var(record["roll_rad"])),
+        "pitch_var_rad2": on_floor * float(np.var(record["pitch_rad"])),
         "mean_abs_torque_nm": mean_abs_torque_nm,
         "cost_of_transport": float(work_j / (mass_kg * GRAVITY_M_S2 * distance_m)) if distance_m > 1e-3 else np.nan,
         "climb_height_m": float(height.max() - height[0]),

@@ -34,7 +34,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from backends.mujoco.mjcf import FOLLOW_SIZE_PX, ModelNames, compile_model  # noqa: E402
-from neuronav.backend import BackendBase, Capabilities  # noqa: E402
+from neuronav.backend import BackendBase, Capabilities, adhesion_port, start_pose  # noqa: E402
 from neuronav.body import BodySpec  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
 from neuronav.ports import MotorSpec, SensorSpec  # noqa: E402
@@ -136,24 +136,24 @@ class MujocoBackend(BackendBase):
         self.capabilities = self._capabilities(body)
         self.reset()
 
-    def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0) -> None:
+    def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
+              pitch_rad: float = 0.0) -> None:
         """Rest pose, at rest, root at ``spawn_height_m`` above the terrain under ``position_m``, facing ``yaw_rad``.
 
-        ``yaw_rad`` turns the body counter-clockwise from +x (its heading is then pi/2 - yaw).
+        ``yaw_rad`` turns the body counter-clockwise from +x (its heading is then pi/2 - yaw);
+        ``position_m=(x, y, z)`` and ``pitch_rad`` place it anywhere, e.g. on a wall
+        (:func:`neuronav.backend.start_pose`). Every pad's adhesion is switched fully on.
         MuJoCo is deterministic, so ``seed`` changes nothing; it is accepted for the protocol.
         """
         model, data = self._require()
-        position = np.asarray(position_m, dtype=float).reshape(-1)
-        if position.size != 2 or not np.isfinite(position).all() or not np.isfinite(yaw_rad):
-            raise ConfigError(f"mujoco reset: position_m must be finite (x, y) in m and yaw_rad finite, "
-                              f"got {position_m!r}, {yaw_rad!r}")
+        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "mujoco")
         x_m, y_m = float(position[0]), float(position[1])
         self._seed = seed
         mujoco.mj_resetData(model, data)
-        root_pos = np.array([x_m, y_m, self.world.ground.height_at(x_m, y_m) + self.body.spawn_height_m])
-        yaw_quat = np.array([np.cos(yaw_rad / 2.0), 0.0, 0.0, np.sin(yaw_rad / 2.0)])
+        ground_z = self.world.ground.height_at(x_m, y_m) + self.body.spawn_height_m
+        root_pos = np.array([x_m, y_m, position[2] if z_given else ground_z])
         root_quat = np.zeros(4)
-        mujoco.mju_mulQuat(root_quat, yaw_quat, np.asarray(self.body.root.quat, float))
+        mujoco.mju_mulQuat(root_quat, pose_quat, np.asarray(self.body.root.quat, float))
         if self._free_qpos is not None:
             data.qpos[self._free_qpos:self._free_qpos + 3] = root_pos
             data.qpos[self._free_qpos + 3:self._free_qpos + 7] = root_quat
@@ -165,7 +165,8 @@ class MujocoBackend(BackendBase):
         data.ctrl[:] = rest
         self._pending.clear()
         mujoco.mj_forward(model, data)
-        if self._free_qpos is not None:
+        self._adhesion_scale = np.ones(len(self._contact_sites))
+        if self._free_qpos is not None and not z_given:
             # On rough ground a claw can start inside a bump and stay trapped there: lift the body
             # until nothing of it starts inside the world (as the PyBullet backend does).
             lifted = 0.0
@@ -283,7 +284,8 @@ class MujocoBackend(BackendBase):
         return out
 
     def write(self, commands: dict[str, np.ndarray]) -> None:
-        """``joint_targets``: shape (1, J) or (J,), rad, in :attr:`BodySpec.joint_names` order."""
+        """``joint_targets``: shape (1, J) or (J,), rad, in :attr:`BodySpec.joint_names` order;
+        ``adhesion``: (1, C), each contact site's fraction of the world's ``adhesion_n``."""
         self._require()
         commands = dict(commands)
         for name, value in commands.items():
@@ -293,6 +295,8 @@ class MujocoBackend(BackendBase):
         checked = self._check_write(commands, batch=1)
         if "joint_targets" in checked:
             self.data.ctrl[:] = checked["joint_targets"][0]
+        if "adhesion" in checked:
+            self._adhesion_scale = self._adhesion_fractions(checked["adhesion"])
 
     def render(self, camera: str) -> np.ndarray:
         """A uint8 (H, W, 3) image from a body camera, or ``"follow"`` (640x480, behind and above the root)."""
@@ -385,6 +389,8 @@ class MujocoBackend(BackendBase):
             if all(n > 0 for n in shape):  # a body without e.g. odour sites offers no odour_sites
                 sensors.append(SensorSpec(name, shape, units))
         motors = (MotorSpec("joint_targets", (sizes["J"],), "rad"),) if sizes["J"] else ()
+        if sizes["C"]:
+            motors += (adhesion_port(sizes["C"]),)
         return Capabilities(name="mujoco", sensors=tuple(sensors), motors=motors, batched=False, can_render=True)
 
     # -- step helpers --------------------------------------------------------------------------
@@ -402,7 +408,7 @@ class MujocoBackend(BackendBase):
             self._adhesion(model, data, xfrc)
 
     def _adhesion(self, model: mujoco.MjModel, data: mujoco.MjData, xfrc: np.ndarray) -> None:
-        """Press each touching contact-site geom into what it touches with ``adhesion_n`` newtons."""
+        """Press each touching adhesive geom into what it touches with its fraction of ``adhesion_n`` newtons."""
         contact = data.contact
         active = contact.exclude == 0
         normal = contact.frame[:, :3]  # points from geom1 to geom2
@@ -419,9 +425,9 @@ class MujocoBackend(BackendBase):
         touching[site2[on2]] = contact.geom2[on2]
         touching[site1[on1]] = contact.geom1[on1]
         norm = np.linalg.norm(outward, axis=1)
-        pressed = np.flatnonzero((touching >= 0) & (norm > 0) & self._adhesive)
+        pressed = np.flatnonzero((touching >= 0) & (norm > 0) & self._adhesive & (self._adhesion_scale > 0))
         geoms = touching[pressed]
-        force = -self._adhesion_n * outward[pressed] / norm[pressed, None]
+        force = -(self._adhesion_n * self._adhesion_scale[pressed] / norm[pressed])[:, None] * outward[pressed]
         self._push(xfrc, data, model.geom_bodyid[geoms], data.geom_xpos[geoms], force)
 
     @staticmethod

@@ -66,7 +66,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from backends.pybullet.urdf import body_to_urdf, find_geom
-from neuronav.backend import BackendBase, Capabilities
+from neuronav.backend import BackendBase, Capabilities, adhesion_port, start_pose
 from neuronav.body import BodySpec, Camera, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
@@ -103,6 +103,12 @@ MAX_SUBSTEPS = 64
 VELOCITY_CLAMP = 100.0  # PyBullet's btMultiBody clamps every velocity coordinate at this value
 DIVERGED_VELOCITY = 0.99 * VELOCITY_CLAMP
 TOUCH_DISTANCE_M = 1e-3  # a contact point this close (or penetrating) counts as touching, for adhesion
+# Adhesive pads in worlds with adhesion: PyBullet's contacts are otherwise rigid (under a millimetre of
+# give), MuJoCo's default soft contacts let a claw sink 8-12 mm under 120 N (about 1.2e4 N/m). Giving
+# the pads' links that compliance keeps a loaded claw in contact while the body shifts a few
+# millimetres, as on MuJoCo; without it every pad lets go at once when the legs change over.
+PAD_STIFFNESS_N_M = 1.2e4
+PAD_DAMPING_N_S_M = 500.0
 FOLLOW_SIZE_PX = (640, 480)
 NEAR_M, FAR_M = 0.005, 200.0
 EYE_NUDGE_M = np.array([3.1e-7, 1.7e-7, 0.0])
@@ -314,7 +320,8 @@ class PybulletBackend(BackendBase):
         self.reset()
         self._choose_substeps()
 
-    def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0) -> None:
+    def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
+              pitch_rad: float = 0.0) -> None:
         """Rebuild the simulation and put the body at rest pose, root ``spawn_height_m`` above the ground.
 
         Parameters
@@ -322,28 +329,30 @@ class PybulletBackend(BackendBase):
         seed : int or None
             Accepted for the protocol; the initial state does not depend on it (PyBullet is
             deterministic), so the same calls give the same trajectory.
-        position_m : (x, y)
-            Where the root starts (m).
+        position_m : (x, y) or (x, y, z)
+            Where the root starts (m); with z, at that height instead of standing on the ground.
         yaw_rad : float
             Counter-clockwise rotation of the body about z from +x (heading = π/2 - yaw).
+        pitch_rad : float
+            Nose-up tilt about the body's lateral axis, before the yaw (π/2: head up, e.g. on a wall).
+
+        Every pad's adhesion is switched fully on.
         """
         body = self._require()
-        position = np.asarray(position_m, float).reshape(-1)
-        if position.size != 2 or not np.isfinite(position).all() or not np.isfinite(yaw_rad):
-            raise ConfigError(f"pybullet reset: position_m must be finite (x, y) and yaw_rad finite, "
-                              f"got {position_m!r}, {yaw_rad!r}")
+        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "pybullet")
         self._seed = seed
         self._build()
-        ground_z = float(self._height_at(position[0], position[1]))
-        frame_pos = np.array([position[0], position[1], ground_z + body.spawn_height_m])
-        frame_rot = quat_to_matrix((math.cos(yaw_rad / 2), 0.0, 0.0, math.sin(yaw_rad / 2)))
+        ground_z = float(self._height_at(position[0], position[1])) + body.spawn_height_m
+        frame_pos = np.array([position[0], position[1], position[2] if z_given else ground_z])
+        frame_rot = quat_to_matrix(pose_quat)
         cid = self._client
         for index, joint in zip(self._joint_index, self._joints):
             pb.resetJointState(self._robot, index, joint.rest_rad, 0.0, physicsClientId=cid)
         self._place_base(frame_pos, frame_rot)
+        self._adhesion_scale = np.ones(len(self._contact_sites))
         # A PyBullet heightfield is a surface: a geom that starts under it is pushed further down, not
         # out. Lift the body if any part would start inside the terrain (rough ground, low spawn height).
-        sink = self._terrain_overlap_m()
+        sink = 0.0 if z_given else self._terrain_overlap_m()
         if sink > 1e-4:  # touching is fine; overlapping by more than 0.1 mm is not
             frame_pos[2] += sink + 1e-3
             self._place_base(frame_pos, frame_rot)
@@ -358,7 +367,8 @@ class PybulletBackend(BackendBase):
 
     # -- protocol: running -------------------------------------------------------------------------
     def write(self, commands: dict[str, np.ndarray]) -> None:
-        """Set ``joint_targets`` (rad), shape (1, J) or (J,), held until overwritten."""
+        """Set ``joint_targets`` (rad), shape (1, J) or (J,), held until overwritten; ``adhesion`` (1, C),
+        each contact site's fraction of the world's ``adhesion_n``."""
         self._require()
         fixed = dict(commands)
         joints = len(self._joints)
@@ -367,6 +377,8 @@ class PybulletBackend(BackendBase):
             if value.shape == (joints,):
                 fixed["joint_targets"] = value[None, :]
         checked = self._check_write(fixed, batch=1)
+        if "adhesion" in checked:
+            self._adhesion_scale = self._adhesion_fractions(checked["adhesion"])
         if "joint_targets" in checked:
             targets = checked["joint_targets"][0]
             if not np.isfinite(targets).all():
@@ -581,6 +593,11 @@ class PybulletBackend(BackendBase):
             self._robot = pb.loadURDF(self._urdf_path, useFixedBase=self._urdf.fixed_base, flags=flags,
                                       physicsClientId=cid)
         self._index_links()
+        if self._world.adhesion_n > 0:
+            pads = {link for site, (link, _) in zip(self._contact_sites, self._contact_links) if site.adhesive}
+            for link in sorted(pads):
+                pb.changeDynamics(self._robot, link, contactStiffness=PAD_STIFFNESS_N_M,
+                                  contactDamping=PAD_DAMPING_N_S_M, physicsClientId=cid)
         # Switch PyBullet's default velocity motors off: torques are applied by step().
         movable = [i for i in range(pb.getNumJoints(self._robot, physicsClientId=cid))
                    if pb.getJointInfo(self._robot, i, physicsClientId=cid)[2] != pb.JOINT_FIXED]
@@ -835,11 +852,12 @@ class PybulletBackend(BackendBase):
 
     # -- stepping helpers --------------------------------------------------------------------------
     def _apply_adhesion(self, adhesion_n: float) -> None:
-        """Press every touching contact geom into the surface it touches (along minus the contact normal)."""
+        """Press every touching adhesive geom into the surface it touches (along minus the contact normal)
+        with its fraction of ``adhesion_n``."""
         cid, robot = self._client, self._robot
         pushes = []
-        for site, (link, point) in zip(self._contact_sites, self._contact_links):
-            if not site.adhesive:
+        for site, (link, point), fraction in zip(self._contact_sites, self._contact_links, self._adhesion_scale):
+            if not site.adhesive or fraction <= 0:
                 continue
             normal = np.zeros(3)
             for contact in pb.getContactPoints(bodyA=robot, linkIndexA=link, physicsClientId=cid):
@@ -847,7 +865,7 @@ class PybulletBackend(BackendBase):
                     normal += contact[7]  # contactNormalOnB points from the surface to the body (A)
             size = np.linalg.norm(normal)
             if size > 0:
-                pushes.append((link, point, -adhesion_n * normal / size))
+                pushes.append((link, point, -adhesion_n * fraction * normal / size))
         if pushes:
             frames = self._frames(sorted({link for link, _, _ in pushes}))
             for link, point, force in pushes:
@@ -926,6 +944,8 @@ class PybulletBackend(BackendBase):
         # Ports must have positive sizes: a body without joints or sites of a kind has no such sensor.
         sensors = tuple(SensorSpec(name, shape, SENSOR_UNITS[name]) for name, shape in shapes.items() if min(shape) > 0)
         motors = (MotorSpec("joint_targets", (joints,), "rad"),) if joints else ()
+        if body.sites_of_kind("contact"):
+            motors += (adhesion_port(len(body.sites_of_kind("contact"))),)
         return Capabilities(name="pybullet", sensors=sensors, motors=motors, batched=False, can_render=True)
 
     def _require(self) -> BodySpec:

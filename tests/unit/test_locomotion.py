@@ -1,7 +1,8 @@
 """The ``locomotion`` scenario: metrics and their conventions, uneven ground, the wall, video, bad input.
 
-Physics runs use MuJoCo (fast); the wall climb uses PyBullet, the engine on which the ant gets its
-front onto the wall (see bodies/desert_ant/README.md, "Wall climbing"). Long sweeps are marked slow.
+Physics runs use MuJoCo (fast) unless a finding belongs to one engine: on the wall, the ant climbs
+with I2Bot's touch rule on PyBullet and with pads released in swing on MuJoCo (see
+bodies/desert_ant/README.md, "Wall climbing"). Long sweeps are marked slow.
 """
 
 from dataclasses import replace
@@ -22,6 +23,7 @@ from scenarios.locomotion import (
     fell_over,
     ground_height_m,
     run_trial,
+    start_pose_kwargs,
     start_position_m,
     trial_metrics,
 )
@@ -104,16 +106,31 @@ def test_start_on_rough_ground_keeps_every_claw_out_of_the_ground(roughness_m):
     assert start_position_m(Ground(kind="flat"), body, 0.3, np.random.default_rng(0)) == (0.0, 0.0)
 
 
-def test_wall_posture_only_on_the_wall():
+def test_wall_posture_only_when_walking_at_the_wall():
     body = desert_ant()
     rest = body.rest_pose_rad()
     head = list(body.joint_names).index("head_pitch")
     flat = build_gait(LocomotionConfig(), body)
-    wall = build_gait(LocomotionConfig(terrain="wall"), body)
-    plain_wall = build_gait(LocomotionConfig(terrain="wall", wall_posture=False), body)
-    for _ in range(2 * wall.cycle_steps):
-        a, b, c = flat.step(0.0, 0.26), wall.step(0.0, 0.26), plain_wall.step(0.0, 0.26)
-    assert a[head] == rest[head] == c[head] and b[head] > rest[head] + 0.5  # head raised on the wall only
+    approach = build_gait(LocomotionConfig(terrain="wall", wall_start="floor"), body)
+    plain_approach = build_gait(LocomotionConfig(terrain="wall", wall_start="floor", wall_posture=False), body)
+    on_wall = build_gait(LocomotionConfig(terrain="wall"), body)
+    for _ in range(2 * approach.cycle_steps):
+        a, b, c, d = (g.step(0.0, 0.26) for g in (flat, approach, plain_approach, on_wall))
+    assert a[head] == rest[head] == c[head] == d[head] and b[head] > rest[head] + 0.5  # raised for the approach only
+
+
+def test_on_wall_start_pose_puts_the_centre_at_the_asked_height():
+    body = desert_ant()
+    config = LocomotionConfig(terrain="wall", wall_start_height_m=2.0)
+    pose = start_pose_kwargs(config, body, Ground(kind="wall"), 0.3, np.random.default_rng(0))
+    assert pose["pitch_rad"] == pytest.approx(np.pi / 2) and pose["yaw_rad"] == 0.0
+    root = np.array(pose["position_m"])
+    centre = root + np.array([[0, 0, -1], [0, 1, 0], [1, 0, 0]]) @ body_centre_m(body)  # body x up, z to -x
+    assert centre[2] == pytest.approx(2.0)
+    assert root[0] == pytest.approx(1.0 - body.spawn_height_m + 0.002)  # standing height off the wall face
+    floor = start_pose_kwargs(replace(config, wall_start="floor"), body, Ground(kind="wall"), 0.3,
+                              np.random.default_rng(0))
+    assert floor == {"position_m": (0.0, 0.0), "yaw_rad": 0.3}
 
 
 # -- physics --------------------------------------------------------------------------------------------
@@ -143,9 +160,9 @@ def test_uneven_ground_on_every_backend(backend, gait):
         assert np.mean(variances) > flat["body_height_var_m2"], (terrain, variances, flat)
 
 
-def test_adhesion_raises_the_ant_against_the_wall():
-    without, _ = walk("pybullet", terrain="wall", adhesion_n=0.0, duration_s=10.0)
-    with_adhesion, _ = walk("pybullet", terrain="wall", adhesion_n=120.0, duration_s=10.0)
+def test_adhesion_raises_the_ant_walking_at_the_wall():
+    without, _ = walk("pybullet", terrain="wall", wall_start="floor", adhesion_n=0.0, duration_s=10.0)
+    with_adhesion, _ = walk("pybullet", terrain="wall", wall_start="floor", adhesion_n=120.0, duration_s=10.0)
     assert not without["fell"] and not with_adhesion["fell"]
     assert without["climb_height_m"] < 0.1  # pushing against the wall lifts the body a little at most
     assert with_adhesion["climb_height_m"] > without["climb_height_m"] + 0.04, (without, with_adhesion)
@@ -153,11 +170,12 @@ def test_adhesion_raises_the_ant_against_the_wall():
 
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
-def test_climb_height_against_adhesion_sweep(backend):
-    """The sweep of the paper's Fig. 2d: climb height for 0–200 N (here: rearing, not climbing; see README)."""
+def test_walking_at_the_wall_against_adhesion_sweep(backend):
+    """Walking from the floor at the wall, 0–200 N: the ant rears up but does not get onto it (README);
+    the climbs themselves start on the wall (tests/cross_backend/test_wall_climbing.py)."""
     climbs = {}
     for adhesion in (0.0, 60.0, 120.0, 150.0, 200.0):
-        metrics, record = walk(backend, terrain="wall", adhesion_n=adhesion, duration_s=12.0)
+        metrics, record = walk(backend, terrain="wall", wall_start="floor", adhesion_n=adhesion, duration_s=12.0)
         assert np.isfinite(metrics["climb_height_m"]), (adhesion, metrics)  # it may rear up and tip over backwards
         assert metrics["climb_height_m"] == pytest.approx(record["position_m"][:, 2].max()
                                                           - record["position_m"][0, 2])

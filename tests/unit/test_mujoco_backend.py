@@ -84,7 +84,7 @@ def test_load_step_read_shapes_and_capabilities():
                        "body_pos": (3,), "body_quat": (4,), "body_linvel": (3,), "body_angvel": (3,),
                        "heading": (1,), "velocity": (2,), "position": (2,), "odour_sites": (2, 3),
                        "wind_sites": (1, 3)}
-    assert [(m.name, m.shape) for m in backend.capabilities.motors] == [("joint_targets", (4,))]
+    assert [(m.name, m.shape) for m in backend.capabilities.motors] == [("joint_targets", (4,)), ("adhesion", (2,))]
     backend.step(10)
     assert backend.time == pytest.approx(10 * 0.002)
     assert backend.timestep == 0.002
@@ -124,7 +124,7 @@ def test_bad_inputs_raise_the_projects_errors():
     with pytest.raises(ConfigError):
         backend.apply_force(0, "nose", (0, 1))
     with pytest.raises(ConfigError, match="position_m"):
-        backend.reset(position_m=(0.0, 1.0, 2.0))
+        backend.reset(position_m=(0.0, 1.0, 2.0, 3.0))
     with pytest.raises(ConfigError):
         backend.step(-1)
 

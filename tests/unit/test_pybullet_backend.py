@@ -150,7 +150,8 @@ def test_capabilities_placeholders_then_real_shapes_and_reads_match():
         shapes = {s.name: s.shape for s in caps.sensors}
         assert shapes["joint_pos"] == (4,) and shapes["contact_force"] == (3, 3)
         assert shapes["odour_sites"] == (1, 3) and shapes["wind_sites"] == (1, 3) and shapes["body_quat"] == (4,)
-        assert [(m.name, m.shape, m.units) for m in caps.motors] == [("joint_targets", (4,), "rad")]
+        assert [(m.name, m.shape, m.units) for m in caps.motors] == [("joint_targets", (4,), "rad"),
+                                                                    ("adhesion", (3,), "fraction of adhesion_n")]
         backend.step(3)
         values = backend.read(list(shapes))
         for name, shape in shapes.items():
