@@ -795,6 +795,19 @@ def _registered(scenario: Scenario, name: str) -> bool:
         return False
 
 
+def plotted_metrics(rows: list[dict], keys: list[str]) -> list[str]:
+    """The numeric metrics of finished trial rows worth a panel, in first-seen order: not the grid
+    keys or bookkeeping, and not a metric that is NaN in every trial (undefined for this setting)."""
+    skip = {"trial", "seed", "status", "error", *keys}
+    metrics = []
+    for row in rows:
+        for key, value in row.items():
+            if key not in skip and key not in metrics and isinstance(value, (int, float)):
+                metrics.append(key)
+    finite = [m for m in metrics if any(isinstance(r.get(m), (int, float)) and math.isfinite(r[m]) for r in rows)]
+    return finite[:MAX_METRICS_IN_FIGURE]
+
+
 def metrics_figure(rows: list[dict], keys: list[str], path: Path) -> Path:
     """Each numeric metric (mean ± std over the finished trials) against the grid, one subplot each.
 
@@ -806,14 +819,8 @@ def metrics_figure(rows: list[dict], keys: list[str], path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    skip = {"trial", "seed", "status", "error", *keys}
     ok = [r for r in rows if r.get("status") == "ok"]
-    metrics = []
-    for row in ok:
-        for key, value in row.items():
-            if key not in skip and key not in metrics and isinstance(value, (int, float)):
-                metrics.append(key)
-    metrics = metrics[:MAX_METRICS_IN_FIGURE]
+    metrics = plotted_metrics(ok, keys)
     x_key, others = keys[0], keys[1:]
     x_labels = list(dict.fromkeys(r[x_key] for r in rows))
     try:

@@ -252,3 +252,12 @@ def test_the_progress_bar_counts_trials_and_failures_and_is_off_without_a_termin
         bar.advance(3, failed=1)
     drawn = stream.getvalue()
     assert "demo" in drawn and "5/10" in drawn and "failed=1" in drawn
+
+
+def test_sweep_figure_leaves_out_metrics_undefined_everywhere():
+    from neuronav.sweep import plotted_metrics
+
+    rows = [{"trial": i, "seed": i, "status": "ok", "error": "", "adhesion_n": a, "climb_m": a / 100.0,
+             "turn_rate": float("nan"), "label": "x"} for i, a in enumerate((0.0, 120.0))]
+    rows.append({"trial": 2, "seed": 2, "status": "failed", "error": "boom", "adhesion_n": 200.0})
+    assert plotted_metrics([r for r in rows if r["status"] == "ok"], ["adhesion_n"]) == ["climb_m"]
