@@ -38,6 +38,7 @@ from neuronav.backend import BackendBase, Capabilities, adhesion_port, start_pos
 from neuronav.body import BodySpec  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
 from neuronav.ports import MotorSpec, SensorSpec  # noqa: E402
+from neuronav.video import follow_axes  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
 # Sensor names, units and per-agent shapes; "J", "C", "O", "W" are filled in from the body at load.
@@ -68,6 +69,8 @@ _OTHER_WARNINGS = {
     mujoco.mjtWarning.mjWARN_CNSTRFULL: "constraint buffer full: constraints were dropped",
 }
 _FATAL_INDEX = np.array([int(w) for w in _FATAL_WARNINGS])
+# The follow camera looks 25° down at a body on the floor (the tangent: its tilt toward the body's up).
+FOLLOW_TILT = float(np.tan(np.radians(25.0)))
 
 
 def _placeholder_capabilities() -> Capabilities:
@@ -530,13 +533,15 @@ class MujocoBackend(BackendBase):
         return self._renderers[key]
 
     def _follow_camera(self, data: mujoco.MjData) -> mujoco.MjvCamera:
-        forward = data.xmat[self._root].reshape(3, 3)[:, 0]
+        forward, up = follow_axes(data.xmat[self._root].reshape(3, 3))
+        view = forward - FOLLOW_TILT * up  # from behind and above, looking at the root
+        view /= np.linalg.norm(view)
         camera = mujoco.MjvCamera()
         camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         camera.lookat[:] = data.xpos[self._root]
         camera.distance = self._follow_distance_m
-        camera.azimuth = float(np.degrees(np.arctan2(forward[1], forward[0])))  # look along the body's yaw
-        camera.elevation = -25.0
+        camera.azimuth = float(np.degrees(np.arctan2(view[1], view[0])))
+        camera.elevation = float(np.degrees(np.arcsin(np.clip(view[2], -1.0, 1.0))))
         return camera
 
     def _close_renderers(self) -> None:

@@ -70,6 +70,7 @@ from neuronav.backend import BackendBase, Capabilities, adhesion_port, start_pos
 from neuronav.body import BodySpec, Camera, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
+from neuronav.video import follow_axes
 from neuronav.world import World, WorldObject
 
 
@@ -903,14 +904,12 @@ class PybulletBackend(BackendBase):
 
     def _render_follow(self) -> np.ndarray:
         pos, _, _, _, rot = self._base_state()
-        forward = np.array([rot[0, 0], rot[1, 0], 0.0])
-        norm = np.linalg.norm(forward)
-        forward = forward / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
+        forward, body_up = follow_axes(rot)
         distance = self._follow_distance_m
-        eye = pos - distance * forward + np.array([0.0, 0.0, 0.6 * distance])
+        eye = pos - distance * forward + 0.6 * distance * body_up
         look = pos - eye
         look /= np.linalg.norm(look)
-        up = np.cross(np.cross(look, [0.0, 0.0, 1.0]), look)
+        up = np.cross(np.cross(look, body_up), look)
         width, height = FOLLOW_SIZE_PX
         return self._render_view(eye, look, up / np.linalg.norm(up), width, height, np.radians(50.0))
 

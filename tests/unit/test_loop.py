@@ -79,3 +79,20 @@ def test_run_stops_early_when_asked():
 def test_non_integer_clock_ratios_are_refused(periods):
     with pytest.raises(ConfigError, match="multiple|positive"):
         Clocks(*periods)
+
+
+def test_follow_camera_axes_on_the_floor_and_on_a_wall():
+    from neuronav.body import quat_to_matrix
+    from neuronav.video import follow_axes
+
+    # On the floor, pitched 10° nose-up and turned 90° left: follow the heading, keep the world's up.
+    pitched = quat_to_matrix((np.cos(0.5 * np.radians(10)), 0.0, -np.sin(0.5 * np.radians(10)), 0.0))
+    turned = quat_to_matrix((np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4))) @ pitched
+    forward, up = follow_axes(turned)
+    np.testing.assert_allclose(forward, [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(up, [0, 0, 1])
+    # Head up on a wall at +x: follow in the body's frame (forward up the wall, up away from it).
+    on_wall = quat_to_matrix((np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0))
+    forward, up = follow_axes(on_wall)
+    np.testing.assert_allclose(forward, [0, 0, 1], atol=1e-12)
+    np.testing.assert_allclose(up, [-1, 0, 0], atol=1e-12)
