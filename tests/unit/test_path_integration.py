@@ -33,11 +33,22 @@ def test_reproduces_fig7_on_100_trials(arithmetic):
 
 @pytest.mark.slow
 def test_reproduces_fig7_on_1000_trials():
-    """Stone et al. report all 1000 agents of their sample within 20 steps. Here 998-1000 of 1000
-    are, over seeds 0 and 1000 in both arithmetics (999 at seed 0 by default); the misses end 20-35
-    steps away, mostly after long routes (280-535 steps out; CPU4 saturates past about 430). One
-    miss in 1000 is allowed, and none beyond 30 steps."""
+    """Stone et al. report all 1000 agents of their sample within 20 steps. This model misses about
+    0.07 % of agents (29 of 40 000 over 40 samples, `python -m scenarios.fig7_statistics`), so about
+    two samples in five have no miss; seed 0 has one (24 steps away). One miss in 1000 is allowed,
+    and none beyond 30 steps."""
     check_against_fig7(run(1000, seed=0), tortuosity_tolerance=0.04, allowed_misses=1)
+
+
+@pytest.mark.slow
+def test_fig7_over_four_samples_of_1000():
+    """Seeds 0, 1000, 2000, 3000: at most 8 misses in 4000 (0.2 %, against 0.07 % measured over 40
+    samples), and at least one sample with every agent home, as in Stone et al.'s."""
+    misses = []
+    for seed in (0, 1000, 2000, 3000):
+        closest = np.array([t["closest_distance"] for t in run(1000, seed=seed).trials])
+        misses.append(int(np.sum(closest > 20.0)))
+    assert sum(misses) <= 8 and min(misses) == 0, misses
 
 
 def test_without_the_cx_memory_the_agent_does_not_get_home():
@@ -63,3 +74,15 @@ def test_outbound_routes_follow_the_configured_statistics():
     assert np.std(rotation) == pytest.approx(0.1005 / np.sqrt(1 - 0.16), rel=0.05)
     again, _ = outbound_routes(config, seeds=[2])
     np.testing.assert_array_equal(again[0], rotation[1])
+
+
+def test_fig7_statistics_script_counts_misses_per_sample(capsys):
+    from scenarios.fig7_statistics import main as fig7_statistics
+
+    assert fig7_statistics(["--runs", "2", "--trials", "30"]) == 0
+    out = capsys.readouterr().out
+    assert "seed      0:" in out and "seed     30:" in out
+    assert "of 60 agents" in out and "samples with every agent home:" in out
+    with pytest.raises(SystemExit) as bad:
+        fig7_statistics(["--runs", "1", "--set", "noise=abc"])
+    assert bad.value.code == 2 and "noise" in capsys.readouterr().err
