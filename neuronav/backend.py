@@ -14,9 +14,9 @@ leading batch dimension of 1 (J hinge joints, C contact sites, O/W odour/wind si
 in [0, 1], the fraction of the world's ``adhesion_n`` each touching adhesive contact site gets (all
 1 after a reset: I2Bot's rule, force while touching; a controller can switch pads off in swing).
 ``reset(seed, position_m=(x, y), yaw_rad=...)`` puts the body at its rest pose above the terrain;
-``position_m=(x, y, z)`` puts the root at that height instead, and ``pitch_rad`` tilts the body
-nose-up about its lateral axis (π/2: head up, belly toward +x), e.g. to start it on a wall
-(:func:`start_pose`).
+``position_m=(x, y, z)`` puts the root at that height instead, ``pitch_rad`` tilts the body
+nose-up about its lateral axis (π/2: head up, belly toward +x), e.g. to start it on a wall, and
+``spin_rad`` turns it about its own up axis first (:func:`start_pose`).
 """
 
 from __future__ import annotations
@@ -37,16 +37,27 @@ def adhesion_port(contact_sites: int) -> MotorSpec:
     return MotorSpec("adhesion", (contact_sites,), "fraction of adhesion_n", range=(0.0, 1.0))
 
 
-def start_pose(position_m, yaw_rad: float, pitch_rad: float, where: str) -> tuple[np.ndarray, bool, np.ndarray]:
+def _quat_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The rotation b, then a, as (w, x, y, z) quaternions."""
+    return np.array([a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
+                     a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
+                     a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1],
+                     a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0]])
+
+
+def start_pose(position_m, yaw_rad: float, pitch_rad: float, where: str,
+               spin_rad: float = 0.0) -> tuple[np.ndarray, bool, np.ndarray]:
     """A physics backend's reset pose from the protocol's arguments.
 
     Parameters
     ----------
     position_m : (x, y) or (x, y, z)
         Where the root starts; without z the backend stands the body on the terrain.
-    yaw_rad, pitch_rad : float
-        Counter-clockwise turn about world z from +x, and nose-up tilt about the body's lateral
-        axis, applied first.
+    yaw_rad, pitch_rad, spin_rad : float
+        The body first turns by ``spin_rad`` about its own up axis (counter-clockwise seen from
+        above it), then tilts nose-up by ``pitch_rad`` about its lateral axis, then turns by
+        ``yaw_rad`` about world z. On the floor (no pitch) spin and yaw are the same turn; for a
+        body pitched onto a wall, spin turns it on the wall.
     where : str
         The backend's name, for error messages.
 
@@ -56,7 +67,7 @@ def start_pose(position_m, yaw_rad: float, pitch_rad: float, where: str) -> tupl
         x, y and z (0 when not given).
     z_given : bool
     quat : ndarray, shape (4,)
-        (w, x, y, z) rotation: the pitch, then the yaw.
+        (w, x, y, z) rotation: the spin, the pitch, then the yaw.
 
     Raises
     ------
@@ -64,13 +75,16 @@ def start_pose(position_m, yaw_rad: float, pitch_rad: float, where: str) -> tupl
         A position of another size, or anything not finite.
     """
     position = np.asarray(position_m, dtype=float).reshape(-1)
-    if position.size not in (2, 3) or not np.isfinite(position).all() or not np.isfinite([yaw_rad, pitch_rad]).all():
-        raise ConfigError(f"{where} reset: position_m must be finite (x, y) or (x, y, z) in m, yaw_rad and "
-                          f"pitch_rad finite, got {position_m!r}, {yaw_rad!r}, {pitch_rad!r}")
-    cy, sy = np.cos(yaw_rad / 2.0), np.sin(yaw_rad / 2.0)
-    cp, sp = np.cos(pitch_rad / 2.0), np.sin(pitch_rad / 2.0)
-    # (cy, 0, 0, sy) * (cp, 0, -sp, 0): nose-up is a negative turn about the body's +y (left) axis.
-    quat = np.array([cy * cp, sy * sp, -cy * sp, sy * cp])
+    angles = [yaw_rad, pitch_rad, spin_rad]
+    if position.size not in (2, 3) or not np.isfinite(position).all() or not np.isfinite(angles).all():
+        raise ConfigError(f"{where} reset: position_m must be finite (x, y) or (x, y, z) in m, yaw_rad, "
+                          f"pitch_rad and spin_rad finite, got {position_m!r}, {yaw_rad!r}, {pitch_rad!r}, "
+                          f"{spin_rad!r}")
+    yaw = np.array([np.cos(yaw_rad / 2.0), 0.0, 0.0, np.sin(yaw_rad / 2.0)])
+    # Nose-up is a negative turn about the body's +y (left) axis.
+    pitch = np.array([np.cos(pitch_rad / 2.0), 0.0, -np.sin(pitch_rad / 2.0), 0.0])
+    spin = np.array([np.cos(spin_rad / 2.0), 0.0, 0.0, np.sin(spin_rad / 2.0)])
+    quat = _quat_product(yaw, _quat_product(pitch, spin))
     return np.append(position, 0.0)[:3], position.size == 3, quat
 
 

@@ -162,7 +162,8 @@ def start_pose_kwargs(config: LocomotionConfig, body: BodySpec, ground: Ground, 
     On the floor (and walking at the wall): the root on the ground near the origin, turned by
     ``yaw_rad`` (:func:`start_position_m`). Starting on the wall: head up, belly to the wall (the body
     pitched 90° nose-up), the root its standing height off the wall face (less ``WALL_PRESS_M``) and
-    high enough that the body centre is ``wall_start_height_m`` up; no yaw.
+    high enough that the body centre is ``wall_start_height_m`` up, turned by ``yaw_rad`` on the wall
+    (+ turns the nose toward +y: to the ant's left).
     """
     if config.terrain != "wall" or config.wall_start == "floor":
         return {"position_m": start_position_m(ground, body, yaw_rad, rng), "yaw_rad": yaw_rad}
@@ -171,7 +172,7 @@ def start_pose_kwargs(config: LocomotionConfig, body: BodySpec, ground: Ground, 
     # sits at root + (-c, b, a).
     root_x = ground.wall_distance_m - body.spawn_height_m + WALL_PRESS_M
     root_z = config.wall_start_height_m - centre[0]
-    return {"position_m": (root_x, 0.0, root_z), "yaw_rad": 0.0, "pitch_rad": np.pi / 2}
+    return {"position_m": (root_x, 0.0, root_z), "yaw_rad": 0.0, "pitch_rad": np.pi / 2, "spin_rad": yaw_rad}
 
 
 class StanceAdhesion(Hook):

@@ -140,16 +140,16 @@ class MujocoBackend(BackendBase):
         self.reset()
 
     def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
-              pitch_rad: float = 0.0) -> None:
+              pitch_rad: float = 0.0, spin_rad: float = 0.0) -> None:
         """Rest pose, at rest, root at ``spawn_height_m`` above the terrain under ``position_m``, facing ``yaw_rad``.
 
         ``yaw_rad`` turns the body counter-clockwise from +x (its heading is then pi/2 - yaw);
-        ``position_m=(x, y, z)`` and ``pitch_rad`` place it anywhere, e.g. on a wall
+        ``position_m=(x, y, z)``, ``pitch_rad`` and ``spin_rad`` place it anywhere, e.g. on a wall
         (:func:`neuronav.backend.start_pose`). Every pad's adhesion is switched fully on.
         MuJoCo is deterministic, so ``seed`` changes nothing; it is accepted for the protocol.
         """
         model, data = self._require()
-        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "mujoco")
+        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "mujoco", spin_rad)
         x_m, y_m = float(position[0]), float(position[1])
         self._seed = seed
         mujoco.mj_resetData(model, data)

@@ -322,7 +322,7 @@ class PybulletBackend(BackendBase):
         self._choose_substeps()
 
     def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
-              pitch_rad: float = 0.0) -> None:
+              pitch_rad: float = 0.0, spin_rad: float = 0.0) -> None:
         """Rebuild the simulation and put the body at rest pose, root ``spawn_height_m`` above the ground.
 
         Parameters
@@ -336,11 +336,13 @@ class PybulletBackend(BackendBase):
             Counter-clockwise rotation of the body about z from +x (heading = π/2 - yaw).
         pitch_rad : float
             Nose-up tilt about the body's lateral axis, before the yaw (π/2: head up, e.g. on a wall).
+        spin_rad : float
+            Turn about the body's own up axis, before the pitch (on a wall: its heading there).
 
         Every pad's adhesion is switched fully on.
         """
         body = self._require()
-        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "pybullet")
+        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "pybullet", spin_rad)
         self._seed = seed
         self._build()
         ground_z = float(self._height_at(position[0], position[1])) + body.spawn_height_m

@@ -41,6 +41,13 @@ def test_start_pose_pitch_then_yaw():
     np.testing.assert_allclose(quat_to_matrix(quat)[:, 0], [0, 1, 0], atol=1e-12)  # yaw alone turns x to y
     _, _, quat = start_pose((0, 0, 1), np.pi / 2, np.pi / 2, "test")
     np.testing.assert_allclose(quat_to_matrix(quat)[:, 2], [0, -1, 0], atol=1e-12)  # pitched, then turned
+    # Spun first: on the wall, a spin to the left turns the nose from straight up toward -y.
+    _, _, quat = start_pose((0, 0, 1), 0.0, np.pi / 2, "test", spin_rad=np.pi / 2)
+    np.testing.assert_allclose(quat_to_matrix(quat)[:, 0], [0, 1, 0], atol=1e-12)
+    np.testing.assert_allclose(quat_to_matrix(quat)[:, 2], [-1, 0, 0], atol=1e-12)  # still belly to the wall
+    _, _, spun = start_pose((0, 0), 0.0, 0.0, "test", spin_rad=0.4)
+    _, _, turned = start_pose((0, 0), 0.4, 0.0, "test")
+    np.testing.assert_allclose(spun, turned, atol=1e-12)  # on the floor spin and yaw are one turn
     for bad in [dict(position_m=(1, 2, 3, 4)), dict(position_m=(0, np.nan)), dict(pitch_rad=np.inf)]:
         arguments = dict(position_m=(0, 0), yaw_rad=0.0, pitch_rad=0.0) | bad
         with pytest.raises(ConfigError, match="position_m"):

@@ -123,7 +123,7 @@ def test_on_wall_start_pose_puts_the_centre_at_the_asked_height():
     body = desert_ant()
     config = LocomotionConfig(terrain="wall", wall_start_height_m=2.0)
     pose = start_pose_kwargs(config, body, Ground(kind="wall"), 0.3, np.random.default_rng(0))
-    assert pose["pitch_rad"] == pytest.approx(np.pi / 2) and pose["yaw_rad"] == 0.0
+    assert pose["pitch_rad"] == pytest.approx(np.pi / 2) and pose["yaw_rad"] == 0.0 and pose["spin_rad"] == 0.3
     root = np.array(pose["position_m"])
     centre = root + np.array([[0, 0, -1], [0, 1, 0], [1, 0, 0]]) @ body_centre_m(body)  # body x up, z to -x
     assert centre[2] == pytest.approx(2.0)
