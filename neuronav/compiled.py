@@ -87,7 +87,7 @@ class _Update:
     drive_clip: tuple[float, float] | None
     memory_clip: tuple[float, float] | None
     # A rate population with one dense (or diagonal) read that does not overlap its own cells: the
-    # product is written straight into its rows of the state and finished there, in place.
+    # product is written straight into its rows of the state and finished there.
     in_place: bool = False
 
 
@@ -319,10 +319,10 @@ class CompiledCircuit:
                 self._table = self._table * self._noise_std
         self._noise_scaled = self.noise_method == "table" and self._noise_std is not None
         self._noise_by_cell = self.batch < SMALL_BATCH or self.noise_method == "table"
-        # (word, agent, sample-in-word): word w of a step holds that step's columns 4w .. 4w + 3.
-        self._noise = np.zeros((self._noise_block_steps * columns // 4, self.batch, 4), self.dtype)
-        if self.noise_method == "table":  # filled in place block after block
+        if self.noise_method == "table":  # (step, column, agent), filled in place block after block
             self._noise_buffer = np.zeros((self._noise_block_steps, columns, self.batch), self.dtype)
+        # Gaussian: (word, agent, sample-in-word), word w of a step holding its columns 4w .. 4w + 3.
+        self._noise = np.zeros((0, self.batch, 4), self.dtype)  # drawn at the first step
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
         self.steps = 0
 
@@ -415,25 +415,15 @@ class CompiledCircuit:
         noise = self._draw_noise() if self._noise_width else None
 
         for u in self._updates:
-            if u.in_place:
-                _, span, weights, diagonal = u.reads[0]
-                rates = state[u.cells]  # a view: everything below updates the state itself
-                if diagonal:
-                    np.multiply(weights, state[span], out=rates)
-                else:
-                    np.matmul(weights, state[span], out=rates)
-                if u.bias:
-                    rates += u.bias
-                u.activation(rates, **u.activation_params)
-                if u.noise_columns is not None:
-                    self._add_noise(rates, noise, u.noise_columns)
-                if u.clip is not None:
-                    _clip(rates, *u.clip, out=rates)
-                continue
+            # An in-place population's single product goes straight into its rows of the state.
+            target = state[u.cells] if u.in_place else None
             net = None
             for from_snapshot, span, weights, diagonal in u.reads:
                 source = snapshot[span] if from_snapshot else state[span]
-                term = weights * source if diagonal else weights @ source
+                if target is not None:
+                    term = (np.multiply if diagonal else np.matmul)(weights, source, out=target)
+                else:
+                    term = weights * source if diagonal else weights @ source
                 if net is None:
                     net = term
                 else:
@@ -461,7 +451,8 @@ class CompiledCircuit:
                 self._add_noise(rates, noise, u.noise_columns)
             if u.clip is not None:
                 _clip(rates, *u.clip, out=rates)
-            state[u.cells] = rates
+            if rates is not target:  # activations work in place, so an in-place population is done
+                state[u.cells] = rates
         self.steps += 1
         return {port: state[cells].T.copy() for port, cells in self._outputs}
 

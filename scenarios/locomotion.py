@@ -181,13 +181,15 @@ class StanceAdhesion(Hook):
     stay on (they are not adhesive anyway)."""
 
     def __init__(self, body: BodySpec) -> None:
-        sites = [s.name for s in body.sites_of_kind("contact")]
-        self.leg_of_site = [LEGS.index(n.split("_")[0]) if n.split("_")[0] in LEGS else -1 for n in sites]
+        legs = [s.name.split("_")[0] for s in body.sites_of_kind("contact")]
+        self.claw_sites = np.array([i for i, leg in enumerate(legs) if leg in LEGS], dtype=int)
+        self.claw_legs = np.array([LEGS.index(leg) for leg in legs if leg in LEGS], dtype=int)
+        self.pads = np.ones((1, len(legs)))
 
     def before_step(self, loop: AgentLoop) -> None:
         swing = loop.gait.in_swing(loop.gait.step_index)
-        on = np.array([1.0 if leg < 0 or not swing[leg] else 0.0 for leg in self.leg_of_site])
-        loop.backend.write({"adhesion": on[None, :]})
+        self.pads[0, self.claw_sites] = ~swing[self.claw_legs]
+        loop.backend.write({"adhesion": self.pads})
 
 
 def build_world(config: LocomotionConfig, seed: int) -> World:

@@ -18,6 +18,7 @@ from neuronav.errors import ConfigError
 from neuronav.world import Ground
 from scenarios.locomotion import (
     LocomotionConfig,
+    StanceAdhesion,
     body_centre_m,
     build_gait,
     fell_over,
@@ -221,3 +222,29 @@ def test_cli_bad_settings_exit_2_with_one_line(tmp_path, capsys, setting):
                  "--out", str(tmp_path / "run")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and err and len(err.splitlines()) == 1, err
+
+
+def test_stance_adhesion_switches_off_the_pads_of_swinging_legs_only():
+    body = desert_ant()
+    gait = build_gait(LocomotionConfig(gait="ik"), body)
+    written = []
+
+    class Recorder:
+        def write(self, commands):
+            written.append(commands["adhesion"].copy())
+
+    class Loop:
+        backend = Recorder()
+
+    Loop.gait = gait
+    hook = StanceAdhesion(body)
+    sites = [s.name for s in body.sites_of_kind("contact")]
+    for _ in range(gait.cycle_steps):
+        hook.before_step(Loop)
+        swing = gait.in_swing(gait.step_index)
+        pads = dict(zip(sites, written[-1][0]))
+        for i, leg in enumerate(LEGS):
+            assert pads[f"{leg}_claw"] == (0.0 if swing[i] else 1.0)
+        assert pads["antenna_L_tip"] == pads["antenna_R_tip"] == 1.0
+        gait.step(0.0, 0.26)
+    assert min(p.sum() for p in written) < len(sites)  # some pads were off some of the time
