@@ -1,8 +1,26 @@
 """The ``neuronav`` command line: list, run, compare, sweep.
 
-Bad input (unknown scenario, backend not installed, bad ``--set`` key or value, a bad ``--config``
-file, a run directory holding other settings) prints one line to stderr and exits 2. ``run`` and
-``sweep`` are resumable: rerunning the same command skips the trials already finished.
+Exit status
+    0: every trial ran (a trial whose ant does not reach home has ``success`` 0; it still ran).
+    1: some trials failed (raised, diverged, or their worker died); their count and the first
+    reason are printed on stderr, and the results of the others are written.
+    2: bad input, found before any trial runs and before anything is written: an unknown scenario,
+    a backend that is empty, unknown, unsupported or not installed, a bad ``--set``/``--grid``/
+    ``--config`` key or value, settings the scenario cannot run on that backend, more trials than
+    the scenario allows, a scheduler address that is not a Dask scheduler or cannot be reached, a
+    run folder that may not be written into, or one that holds results of other settings. One line
+    on stderr, no traceback.
+    130: interrupted; the finished trials are kept.
+
+Run folders
+    A run writes only into a folder that does not exist yet, an empty folder, or a folder a
+    neuronav run made (it holds a ``.neuronav-run`` marker). ``compare`` checks its folder and each
+    backend's subfolder the same way, and checks every backend before running the first.
+
+Resuming
+    ``run`` and ``sweep`` are resumable: rerunning the same command skips the trials already
+    finished, and only assembles the results when all of them are. A folder whose start failed (no
+    finished trial) may be reused with other settings.
 """
 
 from __future__ import annotations
@@ -15,8 +33,9 @@ from pathlib import Path
 from neuronav import registry
 from neuronav.config import describe
 from neuronav.errors import ConfigError, NeuronavError
-from neuronav.rundir import write_atomic
+from neuronav.rundir import check_out_dir, claim_out_dir, write_atomic
 from neuronav.runner import load_scenario, run_scenario
+from neuronav.sweep import plan, run_sweep
 
 
 class _Parser(argparse.ArgumentParser):
@@ -40,7 +59,7 @@ def _parser() -> argparse.ArgumentParser:
                        help="override a scenario setting (repeatable; wins over --config)")
         p.add_argument("--config", type=Path, metavar="FILE.toml",
                        help="scenario settings from a TOML file (key = value, the keys of --set)")
-        p.add_argument("--out", type=Path, help="run directory")
+        p.add_argument("--out", help="run folder: new, empty, or made by an earlier neuronav run")
 
     def parallel(p: argparse.ArgumentParser, workers_help: str) -> None:
         p.add_argument("--workers", type=int, help=workers_help)
@@ -73,8 +92,10 @@ def _parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit status.
 
-    0: done. 2: bad input, printed as one line on stderr (argparse's own usage errors exit 2 through
-    SystemExit). 130: interrupted (finished trials are kept; rerun the command to resume).
+    0: every trial ran. 1: some trials failed (their count and the first reason on stderr; the
+    results are written). 2: bad input, one line on stderr, found before any trial runs (argparse's
+    own usage errors exit 2 through SystemExit). 130: interrupted (finished trials are kept; rerun
+    the command to resume).
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
@@ -89,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
                                    scheduler=args.scheduler, chunk_size=args.chunk_size,
                                    progress=args.progress, figures=args.figures)
             _print_summary(summary)
-            return 0
+            return _failures(summary["failed_trials"], summary["trials"], summary.get("first_error", ""))
         if args.command == "compare":
             return _compare(args, argv)
         return _sweep(args, argv)
@@ -103,9 +124,21 @@ def main(argv: list[str] | None = None) -> int:
         where = f" ({error.filename})" if getattr(error, "filename", None) else ""
         sys.stderr.write(f"neuronav: error: {_one_line(f'{error.strerror or error}{where}')}\n")
         return 2
+    except MemoryError:
+        sys.stderr.write("neuronav: error: out of memory; run fewer trials at once (--chunk-size, --workers) "
+                         "or fewer trials\n")
+        return 1
     except KeyboardInterrupt:
         sys.stderr.write("neuronav: interrupted; finished trials are kept — rerun the same command to resume\n")
         return 130
+
+
+def _failures(failed: int, total: int, first: str) -> int:
+    """Exit status 1 with one line on stderr when ``failed`` of ``total`` trials failed, else 0."""
+    if not failed:
+        return 0
+    sys.stderr.write(f"neuronav: {failed} of {total} trials failed; first: {_one_line(first or 'unknown')}\n")
+    return 1
 
 
 def _silence_stdout() -> None:
@@ -158,19 +191,24 @@ def _print_summary(summary: dict) -> None:
 
 
 def _compare(args: argparse.Namespace, argv: list[str]) -> int:
-    backends = [b.strip() for b in args.backends.split(",") if b.strip()]
-    if not backends:
-        raise ConfigError("--backends needs at least one backend name")
-    out = args.out or Path("runs") / f"compare-{args.scenario}"
+    backends = [b.strip() for b in args.backends.split(",")]
+    if not any(backends) or not all(backends):
+        raise ConfigError(f"--backends needs comma-separated backend names, got {args.backends!r}")
+    if len(set(backends)) != len(backends):
+        raise ConfigError(f"--backends lists a backend twice: {args.backends!r}")
+    out = check_out_dir(Path("runs") / f"compare-{args.scenario}" if args.out is None else args.out, "compare")
     # A scenario may need settings that make its backends comparable (one protocol for all);
     # the user's own --set still wins.
     hook = getattr(load_scenario(args.scenario), "compare_overrides", None)
     common = [f"{k}={v}" for k, v in (hook(backends) if callable(hook) else {}).items()]
-    summaries = {}
-    for backend in backends:
-        summaries[backend] = run_scenario(args.scenario, backend=backend, trials=args.trials, seed=args.seed,
-                                          overrides=[*common, *args.overrides], out_dir=out / backend,
-                                          command=["neuronav", *argv], config_file=args.config)
+    user_keys = {str(o).split("=", 1)[0].strip() for o in args.overrides}
+    common = [c for c in common if c.split("=", 1)[0] not in user_keys]
+    # Every backend is checked (installed, supported, settings) before the first one runs.
+    plans = [plan(args.scenario, backend=backend, trials=args.trials, seed=args.seed,
+                  overrides=[*common, *args.overrides], out_dir=out / backend, command=["neuronav", *argv],
+                  config_file=args.config) for backend in backends]
+    claim_out_dir(out, "compare")
+    summaries = {p.backend: p.run() for p in plans}
     fixed = ("backend", "trials", "failed_trials", "wall_time_s", "real_time_factor")
     metrics = sorted({k for s in summaries.values() for k in s["metrics"]} - set(fixed))
     rows = []
@@ -191,7 +229,9 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     _compare_figure(rows, metrics, out / "compare.png")
     print("\n".join(lines))
     print(f"comparison: {out / 'compare.md'}")
-    return 0
+    failed = sum(s["failed_trials"] for s in summaries.values())
+    first = next((f"{b} {s['first_error']}" for b, s in summaries.items() if s.get("first_error")), "")
+    return _failures(failed, sum(s["trials"] for s in summaries.values()), first)
 
 
 def _cell(value) -> str:
@@ -218,8 +258,6 @@ def _compare_figure(rows: list[dict], metrics: list[str], path: Path) -> None:
 
 
 def _sweep(args: argparse.Namespace, argv: list[str]) -> int:
-    from neuronav.sweep import run_sweep
-
     summary = run_sweep(args.scenario, args.grid, backend=args.backend, trials=args.trials, seed=args.seed,
                         overrides=args.overrides, config_file=args.config, out_dir=args.out,
                         workers=args.workers, scheduler=args.scheduler, chunk_size=args.chunk_size,
@@ -232,7 +270,7 @@ def _sweep(args: argparse.Namespace, argv: list[str]) -> int:
     print(f"sweep: {summary['total_trials']} trials over {len(summary['points'])} points "
           f"({summary['failed_trials']} failed{f', {resumed} already done' if resumed else ''}) "
           f"in {summary['wall_time_s']:.2f} s: {summary['out_dir']}")
-    return 0
+    return _failures(summary["failed_trials"], summary["total_trials"], summary.get("first_error", ""))
 
 
 if __name__ == "__main__":

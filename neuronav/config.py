@@ -168,12 +168,14 @@ def apply_overrides(config_type: type, assignments: Iterable[str] | Mapping[str,
     return build_config(config_type, assignments)
 
 
-def load_config_file(config_type: type, path: str | Path) -> dict[str, Any]:
+def load_config_file(config_type: type, path: str | Path, overridden: Iterable[str] = ()) -> dict[str, Any]:
     """The settings in a TOML file, checked against ``config_type``: ``{key: typed value}``.
 
     The file holds ``key = value`` pairs with the keys of ``--set`` (``neuronav list`` shows them),
     e.g. ``noise = 0.2`` or ``dtype = "float64"``. Unknown keys, values of the wrong type and values
-    out of range raise :class:`ConfigError` naming the key and what is allowed.
+    out of range raise :class:`ConfigError` naming the key and what is allowed. The ranges of the keys in
+    ``overridden`` (set again by ``--set`` or a grid, which win) are not checked here: their values are
+    not used.
     """
     path = Path(path)
     try:
@@ -195,8 +197,9 @@ def load_config_file(config_type: type, path: str | Path) -> dict[str, Any]:
         # TOML values are typed: a number written as a string is a wrong type, as is a table or array.
         if isinstance(value, (dict, list)) or (isinstance(value, str) and kind is not str):
             raise ConfigError(f"config file {str(path)!r}: key {key!r} expects {_type_name(kind)}, got {value!r}")
+    skipped = set(overridden)
     try:
-        build_config(config_type, data)  # type and range checks, naming the key
+        build_config(config_type, {k: v for k, v in data.items() if k not in skipped})  # types and ranges
     except ConfigError as error:
         raise ConfigError(f"config file {str(path)!r}: {error}") from None
     return dict(data)

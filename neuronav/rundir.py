@@ -5,11 +5,16 @@ reader (or a resumed run) never sees half a file.
 
 A run or sweep also keeps (see :mod:`neuronav.sweep`):
 
+- ``.neuronav-run`` — the marker: this folder was made by a neuronav run (its kind and when). A run
+  writes only into a folder that does not exist yet, an empty folder, or a folder with this marker
+  (:func:`check_out_dir`); anything else is refused before a file is touched. While a process works
+  in the folder it holds an exclusive ``flock`` on the marker (:class:`DirectoryLock`), released by
+  the kernel however the process ends; no separate lock file is left behind.
 - ``settings.json`` — what the directory holds (scenario, backend, seed, trials, config, grid),
-  written before the first trial runs; a rerun with other settings is refused.
+  written before the first trial runs; a rerun with other settings is refused while the folder
+  holds finished trials, and may reuse it when it holds none (a start that failed).
 - ``parts/[POINT/]trials-FIRST-LAST.npz`` — one file per finished chunk of trials: its rows, time
   series and aggregates. The results above are assembled from the parts.
-- ``.neuronav.lock`` — held (``flock``) while a process works in the directory.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ import re
 import subprocess
 import sys
 import tempfile
+import time
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -204,7 +210,9 @@ def write_run_directory(
 
 SETTINGS_FILE = "settings.json"
 PARTS_DIR = "parts"
-LOCK_FILE = ".neuronav.lock"
+MARKER_FILE = ".neuronav-run"
+# Kinds of run folder; a folder of one group is never reused by a command of the other.
+_MARKER_GROUPS = {"run": "results", "sweep": "results", "compare": "compare"}
 SETTINGS_FORMAT = 1
 # The settings a rerun must repeat to resume a directory (the rest is recorded, not compared).
 COMPARED_SETTINGS = ("kind", "scenario", "backend", "seed", "trials", "config", "grid")
@@ -306,11 +314,20 @@ def _normalised(value: Any) -> Any:
     return json.loads(json.dumps(value, default=json_default))
 
 
+def has_results(out_dir: Path) -> bool:
+    """Whether ``out_dir`` holds a finished trial: a part file anywhere under its ``parts`` folder."""
+    parts = Path(out_dir) / PARTS_DIR
+    if not parts.is_dir():
+        return False
+    return any(part_range(path.name) is not None for path in parts.rglob("trials-*.npz"))
+
+
 def check_settings(out_dir: Path, settings: dict) -> bool:
     """Record ``settings`` in ``out_dir/settings.json``, or check they match the recorded ones.
 
     Returns True when the directory already held these settings (a resumed run). Raises
-    :class:`ConfigError` naming the first difference when it held other ones.
+    :class:`ConfigError` naming the first difference when it held other ones and finished trials;
+    a directory with other settings but no finished trial (see :func:`has_results`) is taken over.
     """
     path = Path(out_dir) / SETTINGS_FILE
     wanted = _normalised({key: settings.get(key) for key in COMPARED_SETTINGS})
@@ -318,9 +335,18 @@ def check_settings(out_dir: Path, settings: dict) -> bool:
         try:
             recorded = json.loads(path.read_text())
         except (OSError, ValueError) as error:
+            if not has_results(out_dir):
+                write_atomic(path, json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2,
+                                              default=json_default) + "\n")
+                return False
             raise ConfigError(f"run directory {str(out_dir)!r}: {SETTINGS_FILE} cannot be read ({error}); "
                               "give another --out or remove that directory") from None
         have = {key: recorded.get(key) for key in COMPARED_SETTINGS}
+        if have != wanted and not has_results(out_dir):
+            # No finished trial (a start that failed): the folder holds no results; take it over.
+            write_atomic(path, json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2,
+                                          default=json_default) + "\n")
+            return False
         if have != wanted:
             where, old, new = _first_difference(have, wanted)
             raise ConfigError(
@@ -348,22 +374,100 @@ def _first_difference(a: Any, b: Any, where: str = "") -> tuple[str, Any, Any]:
     return where or "settings", a, b
 
 
-class DirectoryLock:
-    """An exclusive ``flock`` on ``out_dir/.neuronav.lock`` while a process works there.
+def _out_label(path: Path | str) -> str:
+    return repr(str(path))
 
-    The kernel releases it when the process ends, however it ends (SIGKILL included).
+
+def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
+    """The run folder ``out_dir`` as a Path, checked to be one a ``kind`` run may write into; writes nothing.
+
+    Allowed: a path that does not exist yet (its parents are made later), an empty directory, or a
+    directory holding neuronav's marker (:data:`MARKER_FILE`) of the same kind of command (run and
+    sweep folders are one kind; compare folders another). Anything else raises
+    :class:`ConfigError`: an empty path, a file, a folder with other files (the user's own, or ``/``).
+    """
+    if out_dir is None or (isinstance(out_dir, str) and not out_dir.strip()):
+        raise ConfigError(f"{flag} {out_dir!r} is empty; give a folder for the results")
+    try:
+        path = Path(out_dir)
+    except TypeError as error:
+        raise ConfigError(f"{flag} {out_dir!r} is not a usable path ({error})") from None
+    if not path.exists():
+        if path.is_symlink():
+            raise ConfigError(f"{flag} {_out_label(path)} is a broken link; give a folder")
+        return path
+    if not path.is_dir():
+        raise ConfigError(f"{flag} {_out_label(path)} is a file; give a directory")
+    marker = path / MARKER_FILE
+    if marker.is_file():
+        made_by = _marker_kind(marker)
+        if made_by is not None and _MARKER_GROUPS.get(made_by) != _MARKER_GROUPS.get(kind):
+            raise ConfigError(f"{flag} {_out_label(path)} holds the results of a neuronav {made_by}, not of a "
+                              f"{kind}; give another folder")
+        return path
+    try:
+        with os.scandir(path) as entries:
+            empty = next(entries, None) is None
+    except OSError as error:
+        raise ConfigError(f"{flag} {_out_label(path)} cannot be read ({error.strerror or error})") from None
+    if not empty:
+        raise ConfigError(f"{flag} {_out_label(path)} holds files that no neuronav run wrote (it has no "
+                          f"{MARKER_FILE} marker); give a new or empty folder")
+    return path
+
+
+def _marker_kind(marker: Path) -> str | None:
+    try:
+        return str(json.loads(marker.read_text()).get("kind")) or None
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def claim_out_dir(out_dir: Path, kind: str = "run", flag: str = "--out") -> Path:
+    """Make the run folder (checked by :func:`check_out_dir`) and put neuronav's marker in it.
+
+    The check is repeated, so a folder filled since is still refused; the marker is created once
+    and never rewritten (it is the file :class:`DirectoryLock` locks).
+    """
+    path = check_out_dir(out_dir, kind, flag)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        text = json.dumps({"made_by": "neuronav", "kind": kind, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
+        try:
+            with open(path / MARKER_FILE, "x") as stream:
+                stream.write(text + "\n")
+            _readable(str(path / MARKER_FILE))
+        except FileExistsError:
+            pass
+    except OSError as error:
+        raise ConfigError(f"{flag} {_out_label(out_dir)}: cannot create the run directory "
+                          f"({error.strerror or error})") from None
+    return path
+
+
+class DirectoryLock:
+    """An exclusive ``flock`` on the folder's marker (``out_dir/.neuronav-run``) while a process works there.
+
+    The kernel releases it when the process ends, however it ends (SIGKILL included). Local pool
+    workers forked while it is held close their copy of :attr:`fileno` (see
+    :func:`neuronav.executors.worker_initializer`), so only this process ever holds it.
     """
 
     def __init__(self, out_dir: Path) -> None:
-        self.path = Path(out_dir) / LOCK_FILE
+        self.path = Path(out_dir) / MARKER_FILE
         self._handle = None
+
+    @property
+    def fileno(self) -> int | None:
+        """The locked descriptor (None when not held, or not on POSIX)."""
+        return self._handle.fileno() if self._handle is not None else None
 
     def __enter__(self) -> DirectoryLock:
         try:
             import fcntl
         except ImportError:  # not POSIX: no lock
             return self
-        self._handle = open(self.path, "a+")
+        self._handle = open(self.path)
         try:
             fcntl.flock(self._handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:

@@ -56,6 +56,9 @@ class Scenario(ABC):
     # Per-trial metrics that measure the computer, not the simulation (wall times): they are the
     # only numbers allowed to differ between two runs with the same seed.
     timing_metrics: tuple[str, ...] = ()
+    # The most trials one run (or one grid point of a sweep) may ask for: more is surely a typo, and
+    # its bookkeeping alone would not fit in memory. A scenario may lower or raise it.
+    max_trials: int = 1_000_000
 
     @abstractmethod
     def run(self, config: Any, *, backend: str, trials: int, seed: int,
@@ -69,6 +72,23 @@ class Scenario(ABC):
     @abstractmethod
     def figures(self, result: ScenarioResult, config: Any, out_dir: Path) -> list[Path]:
         """Write the scenario's figures into ``out_dir``; return their paths."""
+
+    def check(self, config: Any, backend: str) -> None:
+        """Raise :class:`neuronav.errors.ConfigError` when ``config`` cannot run on ``backend``.
+
+        Called for every config of a run or sweep (and every backend of a compare) before anything is
+        written or any trial runs, so that an error knowable from the settings alone exits 2 instead
+        of failing every trial. The default accepts everything the config's own validation accepted.
+        """
+        return None
+
+    def estimate_bytes(self, config: Any, trials: int) -> int | None:
+        """Memory (bytes) one batch of ``trials`` trials of ``config`` needs, or None when unknown.
+
+        The runner compares it with the memory available before the first trial and refuses a run
+        that cannot fit, naming the chunk size to use instead.
+        """
+        return None
 
     def smoke_config(self) -> dict[str, Any]:
         """Overrides that make a very short run, for conformance tests."""

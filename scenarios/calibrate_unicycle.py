@@ -2,17 +2,23 @@
 
 Walks the desert ant with the FK tripod gait on flat ground for every (turn, stride) on a grid and
 records its forward speed and turn rate; writes the table the kinematic backend's ``unicycle``
-mode interpolates (``backends/data/unicycle_<backend>.json``).
+mode interpolates.
+
+By default the table goes to ``unicycle_<backend>.json`` in the current folder (or ``--out PATH``);
+replacing the table shipped in the package (``backends/data/unicycle_<backend>.json``) takes
+``--write-package-table``. Where it will go is decided, and refused if unusable, before the long
+calibration starts.
 
 Usage::
 
-    python -m scenarios.calibrate_unicycle [--backend mujoco] [--duration 3.0] [--out PATH]
+    python -m scenarios.calibrate_unicycle [--backend mujoco] [--duration 3.0] [--out PATH | --write-package-table]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -50,16 +56,35 @@ def measure(backend: str, duration_s: float, seed: int = 0) -> dict:
     }
 
 
-def main(argv: list[str] | None = None) -> int:
+def output_path(argv: list[str] | None = None) -> tuple[argparse.Namespace, Path]:
+    """The parsed arguments and where the table will be written (argparse exits 2 on bad ones)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--backend", default="mujoco")
     parser.add_argument("--duration", type=float, default=3.0)
-    parser.add_argument("--out", type=Path)
+    where = parser.add_mutually_exclusive_group()
+    where.add_argument("--out", type=Path, help="where to write the table (default: ./unicycle_BACKEND.json)")
+    where.add_argument("--write-package-table", action="store_true",
+                       help="replace the table shipped in the package (backends/data/unicycle_BACKEND.json)")
     args = parser.parse_args(argv)
+    if not (args.duration > 0):
+        parser.error(f"--duration must be positive, got {args.duration}")
+    if args.write_package_table:
+        return args, DATA_DIR / f"unicycle_{args.backend}.json"
+    out = args.out if args.out is not None else Path(f"unicycle_{args.backend}.json")
+    if str(args.out) == "" or out.is_dir():
+        parser.error(f"--out {str(out)!r} must be a file path")
+    if out.resolve().parent == DATA_DIR.resolve():
+        parser.error(f"--out {str(out)!r} is in the package; use --write-package-table to replace its table")
+    if not out.resolve().parent.is_dir():
+        parser.error(f"--out {str(out)!r}: the folder {str(out.parent)!r} does not exist")
+    return args, out
+
+
+def main(argv: list[str] | None = None) -> int:
+    args, out = output_path(argv)
     table = measure(args.backend, args.duration)
-    out = args.out or DATA_DIR / f"unicycle_{args.backend}.json"
     write_atomic(out, json.dumps(table, indent=1) + "\n")
-    print(f"wrote {out}")
+    print(f"wrote {out}", file=sys.stdout)
     return 0
 
 

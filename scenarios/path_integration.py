@@ -108,6 +108,14 @@ class PathIntegration(Scenario):
         """Comparing a physics body with the kinematic one only makes sense under one protocol."""
         return {"protocol": "i2bot"} if any(b != "kinematic" for b in backends) else {}
 
+    # -- begin: Scenario.check hook (added by the run-orchestration work, issue 9) --
+    def check(self, config: PathIntegrationConfig, backend: str) -> None:
+        """Settings that cannot run on ``backend`` fail before the first trial (exit 2), not per trial."""
+        if self.protocol(config, backend) == "stone2017" and backend != "kinematic":
+            raise ConfigError(f"the stone2017 protocol moves point agents: it runs on the kinematic backend, "
+                              f"not {backend!r} (use protocol=i2bot)")
+    # -- end: Scenario.check hook --
+
     # -- running -------------------------------------------------------------------------------
     def run(self, config: PathIntegrationConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:

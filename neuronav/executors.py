@@ -1,0 +1,392 @@
+"""Where the chunks of a run or sweep run: here, in a local process pool, or on a Dask cluster.
+
+A chunk of consecutive trials of one grid point is one task (:class:`ChunkTask`), run by
+:func:`run_chunk` through :func:`neuronav.trials.run_trials`. Every executor yields
+``(task, outcome)`` pairs as tasks finish, the outcome a :class:`ChunkOutcome` or the exception
+that ended the task.
+
+Local pool workers are forked on Linux (started in milliseconds, everything imported). They are
+tied to their run: they die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, a
+thread that watches the parent elsewhere), and they close the run directory's lock descriptor they
+inherit, so a killed run leaves no process behind and no lock held.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import signal
+import socket
+import sys
+import threading
+import time
+from collections.abc import Iterable, Iterator, Mapping
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+from urllib.parse import urlsplit
+
+from neuronav.errors import ConfigError, NeuronavError
+from neuronav.trials import load_scenario, run_trials
+
+# Tasks per worker over a whole sweep: enough to keep every worker busy to the end.
+CHUNKS_PER_WORKER = 4
+# A worker count above this is surely a typo.
+MAX_WORKERS = 1024
+# Address schemes a Dask scheduler speaks (http is its dashboard, not the scheduler).
+DASK_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
+
+
+def available_cpus() -> int:
+    """CPUs this process may run on (the default number of sweep workers)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+# -- chunks ---------------------------------------------------------------------------------------------
+
+def chunk_size_for(trials: int, points: int, workers: int, hint: int | None = None,
+                   requested: int | None = None) -> int:
+    """Trials per task.
+
+    ``requested`` when given; else one chunk per point with one worker (the most batching);
+    else enough chunks for about :data:`CHUNKS_PER_WORKER` tasks per worker over all points. A
+    scenario's ``hint`` (its ``chunk_trials``) caps the result.
+    """
+    if requested is not None:
+        return max(1, min(int(requested), trials))
+    if workers <= 1:
+        size = trials
+    else:
+        per_point = max(1, math.ceil(CHUNKS_PER_WORKER * workers / max(1, points)))
+        size = math.ceil(trials / per_point)
+    if hint:
+        size = min(size, int(hint))
+    return max(1, size)
+
+
+def plan_chunks(missing: Iterable[int], size: int) -> list[tuple[int, int]]:
+    """(first, count) chunks covering the ``missing`` trials, cut at multiples of ``size``."""
+    chunks: list[tuple[int, int]] = []
+    for trial in sorted(set(missing)):
+        if chunks:
+            first, count = chunks[-1]
+            if trial == first + count and trial % size != 0:
+                chunks[-1] = (first, count + 1)
+                continue
+        chunks.append((trial, 1))
+    return chunks
+
+
+@dataclass(frozen=True)
+class ChunkTask:
+    """One task: trials ``first .. first + count - 1`` of grid point ``point``."""
+
+    scenario: Any  # a registered name (loaded on the worker) or a picklable Scenario instance
+    point: int
+    config: Any
+    backend: str
+    first: int
+    count: int
+    seed: int
+    video_path: str | None = None
+
+
+@dataclass
+class ChunkOutcome:
+    """What a task sends back: its rows (global trial numbers), time series, aggregates, timing."""
+
+    rows: list
+    timeseries: dict
+    aggregates: dict
+    simulated_time_s: float
+    compute_s: float
+    worker: str
+
+
+def run_chunk(task: ChunkTask) -> ChunkOutcome:
+    """Run one chunk of trials (on a worker) and number its rows globally."""
+    scenario = load_scenario(task.scenario) if isinstance(task.scenario, str) else task.scenario
+    started = time.perf_counter()
+    result = run_trials(scenario, task.config, task.backend, task.count, task.seed + task.first,
+                        video_path=Path(task.video_path) if task.video_path else None)
+    compute_s = time.perf_counter() - started
+    if len(result.trials) != task.count:
+        raise NeuronavError(f"scenario {getattr(scenario, 'name', scenario)!r} returned {len(result.trials)} "
+                            f"rows for {task.count} trials")
+    rows = [normalise_row(row, task.first + i, task.seed + task.first + i) for i, row in enumerate(result.trials)]
+    return ChunkOutcome(rows=rows, timeseries=dict(result.timeseries), aggregates=dict(result.aggregates),
+                        simulated_time_s=float(result.simulated_time_s), compute_s=compute_s,
+                        worker=f"{os.uname().nodename if hasattr(os, 'uname') else ''}:{os.getpid()}")
+
+
+def normalise_row(row: Mapping[str, Any], trial: int, seed: int) -> dict:
+    """A trial row with the global ``trial`` and ``seed``, and ``status``, ``error``, ``success`` present."""
+    out = dict(row)
+    out["trial"], out["seed"] = int(trial), int(seed)
+    out.setdefault("status", "ok")
+    out["error"] = str(out.get("error") or "")
+    if out["status"] != "ok":
+        out["success"] = False
+    out.setdefault("success", out["status"] == "ok")
+    return out
+
+
+def failed_row(trial: int, seed: int, reason: str) -> dict:
+    """The row of a trial whose task failed (not the scenario: the worker or the transport)."""
+    return {"trial": trial, "seed": seed, "success": False, "status": "failed", "error": reason}
+
+
+def task_failure(error: BaseException) -> str:
+    """One line saying why a task (or a figure) failed."""
+    if isinstance(error, BrokenProcessPool) or type(error).__name__ == "KilledWorker":
+        return f"WorkerDied: the worker process running this trial died ({type(error).__name__})"
+    lines = str(error).splitlines()
+    return f"{type(error).__name__}: {lines[0] if lines else ''}".rstrip(": ")
+
+
+# -- in this process ------------------------------------------------------------------------------------
+
+Outcomes = Iterator[tuple[ChunkTask, "ChunkOutcome | BaseException"]]
+
+
+class InProcess:
+    """Runs tasks here, one after another."""
+
+    def run(self, tasks: list[ChunkTask]) -> Outcomes:
+        for task in tasks:
+            try:
+                yield task, run_chunk(task)
+            except Exception as error:  # noqa: BLE001 - reported as the task's failure
+                yield task, error
+
+    isolate = run
+
+    def close(self) -> None:
+        pass
+
+
+# -- a local process pool -------------------------------------------------------------------------------
+
+def pool_context():
+    """The multiprocessing context of local workers: fork on Linux, spawn elsewhere.
+
+    fork starts workers in milliseconds with everything already imported, but a forked worker
+    inherits the parent's descriptors; :func:`worker_initializer` closes the run's lock.
+    """
+    import multiprocessing
+
+    method = "fork" if sys.platform.startswith("linux") else "spawn"
+    return multiprocessing.get_context(method)
+
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent_linux() -> bool:
+    """Ask the kernel to SIGKILL this process when its parent dies (Linux); whether that worked."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signal.SIGKILL), 0, 0, 0) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _watch_parent(parent_pid: int, interval_s: float) -> None:
+    while True:
+        time.sleep(interval_s)
+        if os.getppid() != parent_pid:
+            os._exit(1)
+
+
+def worker_initializer(parent_pid: int, close_fds: tuple[int, ...] = (), watch_interval_s: float = 1.0) -> None:
+    """Run first in every local pool worker: tie it to its parent, drop the run directory's lock.
+
+    - ``close_fds``: descriptors inherited through fork that the worker must not keep (the lock
+      of the run directory: a worker holding it would keep the folder locked after its run died).
+    - The worker dies with ``parent_pid``: ``PR_SET_PDEATHSIG`` on Linux, and a daemon thread that
+      checks the parent every ``watch_interval_s`` (the fallback elsewhere, and for the moment
+      between fork and prctl).
+    """
+    for fd in close_fds:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+    _die_with_parent_linux()
+    if os.getppid() != parent_pid:  # the parent died before prctl took effect
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent_pid, watch_interval_s), daemon=True,
+                     name="neuronav-parent-watch").start()
+
+
+class LocalPool:
+    """A local process pool; a pool broken by a dying worker is replaced for the next batch of tasks.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes.
+    close_fds : tuple of int
+        Descriptors of this process the workers must close (the run directory's lock).
+    """
+
+    def __init__(self, workers: int, close_fds: tuple[int, ...] = ()) -> None:
+        self.workers = workers
+        self.close_fds = tuple(close_fds)
+
+    def _pool(self, workers: int) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(max_workers=workers, mp_context=pool_context(), initializer=worker_initializer,
+                                   initargs=(os.getpid(), self.close_fds))
+
+    def run(self, tasks: list[ChunkTask]) -> Outcomes:
+        if not tasks:
+            return
+        pool = self._pool(min(self.workers, len(tasks)))
+        try:
+            futures = {pool.submit(run_chunk, task): task for task in tasks}
+            for future in as_completed(futures):
+                error = future.exception()
+                yield futures[future], (error if error is not None else future.result())
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    def isolate(self, tasks: list[ChunkTask]) -> Outcomes:
+        """One worker, tasks in order: a worker that dies is blamed on the task it was running."""
+        remaining = list(tasks)
+        while remaining:
+            pool = self._pool(1)
+            try:
+                futures = [pool.submit(run_chunk, task) for task in remaining]
+                for i, (task, future) in enumerate(zip(remaining, futures)):
+                    error = future.exception()
+                    yield task, (error if error is not None else future.result())
+                    if isinstance(error, BrokenProcessPool):
+                        remaining = remaining[i + 1:]
+                        break
+                else:
+                    remaining = []
+            finally:
+                pool.shutdown(wait=True, cancel_futures=True)
+
+    def close(self) -> None:
+        pass
+
+
+# -- Dask -----------------------------------------------------------------------------------------------
+
+class DaskCluster:
+    """Tasks on a Dask distributed cluster (which retries tasks of dead workers itself).
+
+    The cluster's workers are not children of this process: they hold no lock of the run directory,
+    and when this process dies the scheduler drops its tasks with its client.
+    """
+
+    def __init__(self, client: Any, owned: bool) -> None:
+        self.client, self.owned = client, owned
+
+    def run(self, tasks: list[ChunkTask]) -> Outcomes:
+        from distributed import as_completed as dask_as_completed
+
+        if not tasks:
+            return
+        # One message for all the tasks; the scheduler hands them out as workers free up.
+        submitted = self.client.map(run_chunk, tasks, pure=False)
+        futures = {future.key: (future, task) for future, task in zip(submitted, tasks)}
+        for future in dask_as_completed(submitted, loop=self.client.loop):
+            task = futures[future.key][1]
+            if future.status == "error":
+                outcome: Any = future.exception()
+            else:
+                try:
+                    outcome = future.result()
+                except Exception as error:  # noqa: BLE001 - e.g. the result could not be sent back
+                    outcome = error
+            future.release()
+            yield task, outcome
+
+    isolate = run
+
+    def threads(self) -> int:
+        """Threads of the cluster's workers (waiting up to 30 s for a first worker)."""
+        threads = sum(self.client.nthreads().values())
+        if threads == 0:
+            try:
+                self.client.wait_for_workers(1, timeout=30)
+            except Exception:  # noqa: BLE001
+                raise ConfigError("the Dask scheduler has no workers; start some (dask worker ADDRESS)") from None
+            threads = sum(self.client.nthreads().values())
+        return max(1, threads)
+
+    def close(self) -> None:
+        if self.owned:
+            self.client.close()
+
+
+def check_scheduler(scheduler: Any) -> None:
+    """Raise :class:`ConfigError` unless ``scheduler`` is a Dask client or a scheduler address and Dask is installed."""
+    if not isinstance(scheduler, str):
+        if hasattr(scheduler, "submit") and hasattr(scheduler, "nthreads"):
+            return
+        raise ConfigError(f"scheduler must be an address like tcp://HOST:PORT or a distributed.Client, "
+                          f"got {scheduler!r}")
+    match = re.match(r"^([a-z][a-z0-9+.-]*)://\S+$", scheduler)
+    if not match:
+        raise ConfigError(f"--scheduler expects an address like tcp://HOST:PORT, got {scheduler!r}")
+    if match.group(1) not in DASK_SCHEMES:
+        raise ConfigError(f"--scheduler {scheduler}: a Dask scheduler address starts with "
+                          f"{' or '.join(s + '://' for s in DASK_SCHEMES[:2])} (http:// is its dashboard), "
+                          f"e.g. tcp://HOST:8786")
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise ConfigError("--scheduler needs Dask distributed; install it with: pip install 'neuronav[dask]'") from None
+
+
+def _reachable(address: str, timeout_s: float) -> None:
+    """For a tcp:// address, raise :class:`ConfigError` at once when nothing listens there."""
+    parts = urlsplit(address)
+    if parts.scheme != "tcp":
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError as error:
+        raise ConfigError(f"--scheduler {address}: {error}") from None
+    if not host or port is None:
+        raise ConfigError(f"--scheduler {address}: give a host and a port, like tcp://HOST:8786")
+    try:
+        with socket.create_connection((host, port), timeout=timeout_s):
+            pass
+    except OSError as error:
+        reason = error.strerror or type(error).__name__
+        raise ConfigError(f"cannot reach the Dask scheduler at {address}: {reason}") from None
+
+
+def connect(scheduler: Any) -> tuple[Any, bool]:
+    """A Dask client for ``scheduler`` (an address or a Client) and whether we own it.
+
+    ``NEURONAV_SCHEDULER_TIMEOUT`` (default 10 s) bounds the wait; an address nothing listens on is
+    refused at once.
+    """
+    check_scheduler(scheduler)
+    if not isinstance(scheduler, str):
+        return scheduler, False
+    from distributed import Client
+
+    timeout = os.environ.get("NEURONAV_SCHEDULER_TIMEOUT", "10s")
+    _reachable(scheduler, timeout_s=5.0)
+    try:
+        client = Client(scheduler, timeout=timeout, set_as_default=False)
+    except Exception as error:  # noqa: BLE001 - any failure to connect is the user's address
+        reason = str(error).splitlines()[0] if str(error) else type(error).__name__
+        raise ConfigError(f"cannot reach the Dask scheduler at {scheduler}: {reason}") from None
+    return client, True
