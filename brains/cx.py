@@ -152,7 +152,8 @@ def decode_home_vector(cpu4: np.ndarray, memory_gain: float = CPU4_GAIN) -> tupl
     """
     cpu4 = np.atleast_2d(cpu4)
     signal = np.roll(cpu4[:, :8], 1, axis=1) + np.roll(cpu4[:, 8:], -1, axis=1)
-    harmonic = signal @ np.exp(1j * preferred_headings_rad(8))
+    # Summed per row (not a BLAS product, which rounds a row differently for another batch size).
+    harmonic = (signal * np.exp(1j * preferred_headings_rad(8))).sum(axis=1)
     # CPU4 cells fire most for travel *toward* their column: the nest lies the opposite way.
     direction = np.angle(-harmonic)
     return direction, np.abs(harmonic) / memory_gain

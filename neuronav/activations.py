@@ -10,18 +10,17 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy.special import expit
 
 from neuronav.errors import CircuitError
 
 
 def logistic(x: np.ndarray, slope: float = 1.0, bias: float = 0.0) -> np.ndarray:
-    """``1 / (1 + exp(-(slope * x - bias)))``: Stone et al. 2017's sigmoid with slope a and bias b."""
-    if x.size < 512:  # scipy's expit has the least call overhead ...
-        np.multiply(x, slope, out=x)
-        x -= bias
-        return expit(x, out=x)
-    np.multiply(x, -slope, out=x)  # ... numpy's vectorised exp the best throughput
+    """``1 / (1 + exp(-(slope * x - bias)))``: Stone et al. 2017's sigmoid with slope a and bias b.
+
+    One arithmetic path for every array size, so that a value's result never depends on how many
+    others are computed with it (scipy's ``expit`` rounds differently from ``exp`` here).
+    """
+    np.multiply(x, -slope, out=x)
     x += bias
     np.exp(x, out=x)
     x += 1.0

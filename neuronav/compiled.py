@@ -2,8 +2,10 @@
 
 All N agents advance together: every population's rates live in one state array of shape
 (total_cells, N) — cells by agents, so that element-wise work runs over long contiguous rows —
-and each population reads the contiguous span of that array its sources occupy through one
-matrix product. The public methods speak (N, size), the batch first. Populations update in a
+and each population reads the span of that array its sources occupy through one
+sum of products formed element-wise and summed in a fixed order (:class:`_Product`), so that an
+agent's numbers never depend on how many agents share the batch. The public methods speak
+(N, size), the batch first. Populations update in a
 topological order of the undelayed connections (ties broken by name, so the order — and the
 numbers — never depend on the order the populations were declared in). A delayed connection reads
 its source as it was at the start of the step.
@@ -14,8 +16,9 @@ agent i of a batch sees exactly the numbers a single run with that agent's seed 
 
 from __future__ import annotations
 
+import functools
+import os
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import networkx as nx
@@ -32,6 +35,11 @@ SPARSE_MAX_DENSITY = 0.1
 # Bytes of pre-drawn noise held per circuit at most.
 NOISE_BUFFER_BYTES = 1 << 25
 NOISE_METHODS = ("gaussian", "table")
+# compile() refuses a batch whose state would need more than the machine's free memory, or this
+# many bytes where the free memory cannot be read.
+DEFAULT_MEMORY_CAP_BYTES = 64 * 2**30
+# About what one agent's noise generator (an SFC64 Generator object) costs.
+RNG_BYTES = 1024
 
 
 def _clip_ufunc():
@@ -67,32 +75,249 @@ def normal_quantile_table(dtype: Any = np.float64) -> np.ndarray:
     return ndtri((np.arange(TABLE_LEVELS) + 0.5) / TABLE_LEVELS).astype(dtype)
 
 
-@dataclass
-class _Update:
-    """Everything one non-input population needs for its update, resolved at compile time."""
-
-    name: str
-    kind: str
-    cells: slice
-    # (from_snapshot, span of state columns, weights (span, size) or their diagonal, is_diagonal)
-    reads: list[tuple[bool, slice, Any, bool]]
-    bias: float
-    activation: Callable[..., np.ndarray]
-    activation_params: dict
-    noise_columns: tuple[int, int, float] | None  # (first padded column, cells, std)
-    clip: tuple[float, float] | None
-    leak_fraction: float  # leaky: dt / tau
-    gain: float
-    leak: float
-    drive_clip: tuple[float, float] | None
-    memory_clip: tuple[float, float] | None
-    # A rate population with one dense (or diagonal) read that does not overlap its own cells: the
-    # product is written straight into its rows of the state and finished there.
-    in_place: bool = False
-
-
 def _overlaps(a: slice, b: slice) -> bool:
     return a.start < b.stop and b.start < a.stop
+
+
+def _available_memory_bytes() -> int:
+    """Physical memory not in use (Linux/Unix), or :data:`DEFAULT_MEMORY_CAP_BYTES` where unknown."""
+    try:
+        return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, ValueError, OSError):
+        return DEFAULT_MEMORY_CAP_BYTES
+
+
+# -- the net input: W·x summed in a fixed order per cell ------------------------------------------
+class _Product:
+    """The net input ``W·x`` of one population, for every agent, summed in a fixed order.
+
+    A BLAS matrix product rounds each agent's column differently depending on the batch width
+    (gemv for one agent, gemm kernels and blockings for many), so instead each cell's terms
+    ``w_k * x_k`` are formed element-wise into a buffer of shape (terms, cells, agents) and summed
+    over the first axis — always left to right, in the order of the source cells. Every agent's
+    numbers are then independent of the batch width and of its batch-mates, bit for bit.
+
+    A connection block becomes one of four terms:
+
+    - ``diagonal`` (one-to-one onto a block the size of the target): one product, one term;
+    - ``dense`` (most weights non-zero): one term per source cell, by broadcasting;
+    - ``gather`` (few non-zeros per row): the source cells each row reads are gathered
+      (``np.take``), one term per non-zero of the fullest row (shorter rows padded with weight 0);
+    - ``sparse`` (``sparse=True``): a scipy CSR product, which sums each row's non-zeros in column
+      order from 0 whatever the number of agents.
+    """
+
+    def __init__(self, reads: list[tuple[bool, int, np.ndarray]], size: int, dtype: np.dtype,
+                 sparse: bool) -> None:
+        # reads: (from_snapshot, first state row, weights (size, span)) with the span's zero columns trimmed.
+        self.size = size
+        self.terms: list[tuple] = []  # (kind, from_snapshot, rows, weights, first slot, slots)
+        slot = 0
+        for from_snapshot, lo, weights in reads:
+            span = weights.shape[1]
+            nonzero = weights != 0
+            per_row = int(nonzero.sum(axis=1).max())
+            if span == size and not np.any(nonzero & ~np.eye(size, dtype=bool)):
+                term = ("diagonal", np.diag(weights).astype(dtype)[:, None], 1)
+            elif sparse:
+                term = ("sparse", scipy.sparse.csr_matrix(weights.astype(dtype)), 1)
+            elif span <= 2 * per_row:
+                term = ("dense", np.ascontiguousarray(weights.T.astype(dtype))[:, :, None], span)
+            else:
+                index = np.zeros((per_row, size), np.intp)
+                values = np.zeros((per_row, size), dtype)
+                for row in range(size):
+                    columns = np.flatnonzero(nonzero[row])
+                    index[:columns.size, row] = lo + columns
+                    index[columns.size:, row] = lo + (columns[0] if columns.size else 0)
+                    values[:columns.size, row] = weights[row, columns]
+                term = ("gather", (index, values[:, :, None]), per_row)
+            kind, data, slots = term
+            self.terms.append((kind, from_snapshot, slice(lo, lo + span), data, slot, slots))
+            slot += slots
+        self.slots = slot
+        # Summing three or more terms over axis 0 is a left-to-right loop only while each term has
+        # two or more elements (numpy sums a lone vector pairwise): pad a one-cell population to two.
+        self.padded = max(size, 2) if slot >= 3 else size
+
+    def buffer_bytes(self, batch: int, itemsize: int) -> int:
+        return self.slots * self.padded * batch * itemsize if self.slots > 1 else 0
+
+    def bind(self, state: np.ndarray, snapshot: np.ndarray | None, out: np.ndarray,
+             out_rows: slice | None) -> None:
+        """Prepare the step's calls against the state arrays; the sum lands in ``out`` (size, agents),
+        which is the state's rows ``out_rows`` when given (None: a separate array)."""
+        batch = state.shape[1]
+        size = self.size
+        # One term is computed straight into ``out`` unless it reads out's own rows.
+        direct = self.slots == 1 and not (out_rows is not None and any(
+            not from_snapshot and _overlaps(rows, out_rows) for _, from_snapshot, rows, *_ in self.terms))
+        if direct:
+            buffer = out[None]
+        else:
+            buffer = np.zeros((self.slots, self.padded, batch), state.dtype)
+        calls = []
+        for kind, from_snapshot, rows, data, first, slots in self.terms:
+            source = snapshot if from_snapshot else state
+            target = buffer[first:first + slots, :size]
+            if kind == "diagonal":
+                calls.append(functools.partial(np.multiply, data, source[rows], out=target[0]))
+            elif kind == "dense":
+                calls.append(functools.partial(np.multiply, data, source[rows][:, None, :], out=target))
+            elif kind == "gather":
+                index, values = data
+                calls.append(functools.partial(np.take, source, index, 0, target))
+                calls.append(functools.partial(np.multiply, target, values, out=target))
+            else:
+                calls.append(functools.partial(_sparse_term, data, source[rows], target[0]))
+        self._calls = calls
+        if not self.terms:
+            calls.append(functools.partial(out.fill, 0))
+        elif self.slots == 2:
+            calls.append(functools.partial(np.add, buffer[0, :size], buffer[1, :size], out=out))
+        elif self.slots >= 3 and self.padded == size:
+            calls.append(functools.partial(np.add.reduce, buffer, 0, None, out))
+        elif self.slots >= 3:
+            total = np.zeros((self.padded, batch), state.dtype)
+            calls.append(functools.partial(np.add.reduce, buffer, 0, None, total))
+            calls.append(functools.partial(np.copyto, out, total[:size]))
+        elif not direct:
+            calls.append(functools.partial(np.copyto, out, buffer[0, :size]))
+
+    def __call__(self) -> None:
+        for call in self._calls:
+            call()
+
+
+def _sparse_term(matrix, source: np.ndarray, out: np.ndarray) -> None:
+    np.copyto(out, matrix @ source)
+
+
+# -- one small step per population kind (nengo's builder style) -----------------------------------
+class _PopulationStep:
+    """What every non-input population does each step: net input, bias, activation, noise, clip.
+
+    Subclasses differ in where the net input goes (:class:`_RateStep`, :class:`_LeakyStep`,
+    :class:`_IntegratorStep`).
+    """
+
+    kind = "rate"
+
+    def __init__(self, name: str, cells: slice, product: _Product, bias: float, activation: Callable,
+                 params: dict, noise_columns: tuple[int, int, float] | None, clip: tuple[float, float] | None,
+                 ) -> None:
+        self.name, self.cells, self.product = name, cells, product
+        self.bias, self.activation, self.params = bias, activation, params
+        self.noise_columns, self.clip = noise_columns, clip
+
+    def bind(self, compiled: CompiledCircuit) -> None:
+        self.rates_view = compiled._state[self.cells]
+        self.add_noise = compiled._add_noise
+        target = self._net_target(compiled)
+        self.product.bind(compiled._state, compiled._snapshot, target,
+                          self.cells if target is self.rates_view else None)
+
+    def _net_target(self, compiled: CompiledCircuit) -> np.ndarray:
+        return self.rates_view  # rate and output populations are computed in place in the state
+
+    def finish(self, rates: np.ndarray, noise: np.ndarray | None) -> None:
+        """Noise and clip, in place."""
+        if self.noise_columns is not None:
+            self.add_noise(rates, noise, self.noise_columns)
+        if self.clip is not None:
+            _clip(rates, *self.clip, out=rates)
+
+    def __call__(self, noise: np.ndarray | None) -> None:
+        self.product()
+        net = self.rates_view
+        if self.bias:
+            net += self.bias
+        self.activation(net, **self.params)  # in place: activations overwrite their input
+        self.finish(net, noise)
+
+
+class _RateStep(_PopulationStep):
+    """``rate`` and ``output``: r = f(W x + b), written straight into the population's state rows."""
+
+
+def check_leaky_step(name: str, tau_s: float, dt_s: float | None) -> None:
+    """Compile-time stability check of a leaky population's Euler step: ``0 < dt_s <= tau_s / 2``."""
+    if dt_s is None or not dt_s > 0:
+        raise CircuitError(f"population {name!r} is leaky: compile with dt_s > 0 (got {dt_s!r})")
+    if dt_s > 0.5 * tau_s:
+        raise CircuitError(
+            f"population {name!r}: dt_s = {dt_s:g} s is longer than half its tau_s = {tau_s:g} s; "
+            "Euler integration would oscillate or diverge — use dt_s <= tau_s / 2"
+        )
+
+
+def leaky_euler_update(previous: np.ndarray, target: np.ndarray, leak_fraction: float) -> np.ndarray:
+    """One Euler step of ``tau dr/dt = -r + f(W x + b)``: ``r + (dt / tau) (f - r)``."""
+    return previous + leak_fraction * (target - previous)
+
+
+class _LeakyStep(_PopulationStep):
+    """``leaky``: tau dr/dt = -r + f(W x + b), one Euler step (:func:`leaky_euler_update`)."""
+
+    kind = "leaky"
+
+    def __init__(self, *args: Any, leak_fraction: float) -> None:
+        super().__init__(*args)
+        self.leak_fraction = leak_fraction
+
+    def _net_target(self, compiled: CompiledCircuit) -> np.ndarray:
+        self.net = np.zeros((self.cells.stop - self.cells.start, compiled.batch), compiled.dtype)
+        return self.net
+
+    def __call__(self, noise: np.ndarray | None) -> None:
+        self.product()
+        net = self.net
+        if self.bias:
+            net += self.bias
+        rates = leaky_euler_update(self.rates_view, self.activation(net, **self.params), self.leak_fraction)
+        self.finish(rates, noise)
+        self.rates_view[...] = rates
+
+
+class _IntegratorStep(_PopulationStep):
+    """``integrator``: m += gain * clip(W x + b) - leak, m clipped; rates f(m)."""
+
+    kind = "integrator"
+
+    def __init__(self, *args: Any, gain: float, leak: float, drive_clip, memory_clip) -> None:
+        super().__init__(*args)
+        self.gain, self.leak, self.drive_clip, self.memory_clip = gain, leak, drive_clip, memory_clip
+
+    def bind(self, compiled: CompiledCircuit) -> None:
+        self.memory = compiled._memory[self.name]
+        super().bind(compiled)
+
+    def _net_target(self, compiled: CompiledCircuit) -> np.ndarray:
+        self.net = np.zeros((self.cells.stop - self.cells.start, compiled.batch), compiled.dtype)
+        return self.net
+
+    def __call__(self, noise: np.ndarray | None) -> None:
+        self.product()
+        net, memory = self.net, self.memory
+        if self.bias:
+            net += self.bias
+        if self.drive_clip is not None:
+            _clip(net, *self.drive_clip, out=net)
+        net *= self.gain
+        memory += net
+        if self.leak:
+            memory -= self.leak
+        if self.memory_clip is not None:
+            _clip(memory, *self.memory_clip, out=memory)
+        self.rates_of_memory()
+        self.finish(self.rates_view, noise)
+
+    def rates_of_memory(self) -> None:
+        """The rates f(m), clipped, into the population's state rows (no noise)."""
+        np.copyto(self.rates_view, self.memory)
+        self.activation(self.rates_view, **self.params)
+        if self.clip is not None:
+            _clip(self.rates_view, *self.clip, out=self.rates_view)
 
 
 class CompiledCircuit:
@@ -102,7 +327,9 @@ class CompiledCircuit:
     ----------
     circuit : Circuit
     batch : int
-        Number of agents N stepped together.
+        Number of agents N stepped together. The state needs about :meth:`bytes_per_agent` bytes
+        per agent; a batch that would need more than the machine's free memory (or
+        :data:`DEFAULT_MEMORY_CAP_BYTES` where that is unknown) is refused before anything is allocated.
     seed : int or None
         Agent i's noise generator is seeded with ``seed + i`` (unless ``seeds`` is given).
     seeds : sequence of int, optional
@@ -117,65 +344,116 @@ class CompiledCircuit:
         ``gaussian``: numpy's exact normal sampler. ``table``: 16 random bits per sample index a
         table of normal quantiles (:func:`normal_quantile_table`) — about 3x cheaper, within
         1/65536 of N(0, 1) in distribution, tails cut at ±4.33 σ.
+    check_inputs : bool
+        Check every step that each input is finite and inside its port's declared range (default).
+        ``False`` skips these value checks (names, shapes and dtypes are still checked) for speed:
+        a NaN or infinite input then propagates into the state and stays there.
+
+    Reproducibility: agent i's numbers depend only on the circuit, dtype, noise method, its own
+    seed and its own inputs — not on the batch width or its batch-mates — bit for bit on one
+    machine and build of numpy/scipy (see :class:`_Product`).
     """
 
     def __init__(
         self, circuit, batch: int = 1, seed: int | None = 0, seeds: Sequence[int] | None = None,
         dtype: Any = np.float64, dt_s: float | None = None, sparse: bool | None = None,
-        noise_method: str = "gaussian",
+        noise_method: str = "gaussian", check_inputs: bool = True,
     ) -> None:
+        self._check_arguments(circuit, batch, seed, seeds, dtype, dt_s, noise_method, check_inputs)
+        self.noise_method = noise_method
+        self.check_inputs = bool(check_inputs)
+        self.circuit = circuit
+        self.batch = int(batch)
+        self.dtype = np.dtype(dtype)
+        self.dt_s = dt_s
+        self.sensors = circuit.sensors
+        self.motors = circuit.motors
+        self._sensor_shapes = {s.name: (self.batch, *s.shape) for s in self.sensors}
+        # Every port is checked for finite values, and for its range where one is declared.
+        self._sensor_ranges = [(s.name, *(s.range or (-np.inf, np.inf))) for s in self.sensors]
+
+        self.order = _update_order(circuit)
+        self._lay_out_cells()
+        self.sparse = self._choose_sparse(sparse)
+        self._lay_out_noise()
+        self._inputs: list[tuple] = []
+        self._updates: list[_PopulationStep] = []
+        self._needs_snapshot = False
+        position = {name: i for i, name in enumerate(self.order)}
+        for name in self.order:
+            pop = circuit.population(name)
+            if pop.kind == "input":
+                self._inputs.append(self._build_input(pop))
+            else:
+                self._updates.append(self._build_population(pop, position))
+        self._outputs = [(p.ports[0].name, self.cells[p.name]) for p in
+                         (circuit.population(n) for n in self.order) if p.kind == "output"]
+        self._memory_names = [u.name for u in self._updates if u.kind == "integrator"]
+        self._check_size()
+
+        if seeds is None:
+            if seed is None:
+                seed = int(np.random.SeedSequence().entropy % (2**31))
+            seeds = [int(seed) + i for i in range(self.batch)]
+        self.seeds = [int(s) for s in seeds]
+        self.reset()
+
+    # -- building -------------------------------------------------------------------------------
+    @staticmethod
+    def _check_arguments(circuit, batch, seed, seeds, dtype, dt_s, noise_method, check_inputs) -> None:
         if noise_method not in NOISE_METHODS:
             raise CircuitError(f"noise_method {noise_method!r} is unknown; allowed: {', '.join(NOISE_METHODS)}")
-        self.noise_method = noise_method
         if not isinstance(batch, (int, np.integer)) or isinstance(batch, bool) or batch < 1:
             raise CircuitError(f"batch must be a positive int, got {batch!r}")
+        if not isinstance(check_inputs, (bool, np.bool_)):
+            raise CircuitError(f"check_inputs must be True or False, got {check_inputs!r}")
         try:
             dtype = np.dtype(dtype)
         except (TypeError, ValueError):
             raise CircuitError(f"dtype must be float64 or float32, got {dtype!r}") from None
-        for value in [seed] if seeds is None else list(seeds):
+        if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+            raise CircuitError(f"dtype must be float64 or float32, got {dtype}")
+        if seeds is not None:
+            try:
+                seeds = list(seeds)
+            except TypeError:
+                raise CircuitError(f"seeds must be a sequence of non-negative ints, got {seeds!r}") from None
+            if len(seeds) != batch:
+                raise CircuitError(f"{len(seeds)} seeds given for a batch of {batch}")
+        for value in [seed] if seeds is None else seeds:
             if value is not None and (not isinstance(value, (int, np.integer)) or isinstance(value, bool)
                                       or value < 0):
                 raise CircuitError(f"seeds must be non-negative ints, got {value!r}")
         if dt_s is not None and (not isinstance(dt_s, (int, float, np.number)) or not np.isfinite(dt_s)):
             raise CircuitError(f"dt_s must be a finite number of seconds, got {dt_s!r}")
-        if dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
-            raise CircuitError(f"dtype must be float64 or float32, got {dtype}")
-        if seeds is not None:
-            seeds = [int(s) for s in seeds]
-            if len(seeds) != batch:
-                raise CircuitError(f"{len(seeds)} seeds given for a batch of {batch}")
         if circuit.graph.number_of_nodes() == 0:
             raise CircuitError(f"circuit {circuit.name!r} has no populations")
-        self.circuit = circuit
-        self.batch = int(batch)
-        self.dtype = dtype
-        self.dt_s = dt_s
-        self.sensors = circuit.sensors
-        self.motors = circuit.motors
-        self._sensor_shapes = {s.name: (self.batch, *s.shape) for s in self.sensors}
-        self._sensor_ranges = [(s.name, *s.range) for s in self.sensors if s.range is not None]
 
-        self.order = _update_order(circuit)
-        position = {name: i for i, name in enumerate(self.order)}
+    def _lay_out_cells(self) -> None:
+        """Each population's rows of the state, in update order."""
         self.cells: dict[str, slice] = {}
         start = 0
         for name in self.order:
-            size = circuit.population(name).size
+            size = self.circuit.population(name).size
             self.cells[name] = slice(start, start + size)
             start += size
         self.total_cells = start
-        if sparse is None:
-            matrix, _ = circuit.weight_matrix()
-            density = np.count_nonzero(matrix) / max(matrix.size, 1)
-            sparse = start >= SPARSE_MIN_CELLS and density <= SPARSE_MAX_DENSITY
-        self.sparse = bool(sparse)
 
-        # Each step an agent draws one normal sample per noisy cell, population by population in
-        # update order (those of 4k cells first), padded to whole 64-bit words of four 16-bit
-        # samples; then most populations read whole words (see _draw_noise and step).
+    def _choose_sparse(self, sparse: bool | None) -> bool:
+        if sparse is None:
+            if self.total_cells < SPARSE_MIN_CELLS:
+                return False
+            edges = self.circuit.graph.edges(data=True)
+            nonzero = sum(int(np.count_nonzero(data["weights"])) for _, _, data in edges)
+            return nonzero / self.total_cells ** 2 <= SPARSE_MAX_DENSITY
+        return bool(sparse)
+
+    def _lay_out_noise(self) -> None:
+        """Each step an agent draws one normal sample per noisy cell, population by population in
+        update order (those of 4k cells first, each then owning whole 64-bit words of four 16-bit
+        samples; the others packed after), padded to whole words (see _draw_noise and _add_noise)."""
+        circuit = self.circuit
         noisy = [n for n in self.order if circuit.population(n).noise_std > 0]
-        # Populations of 4k cells first (each then owns whole 64-bit words), the others packed after.
         noisy.sort(key=lambda n: circuit.population(n).size % 4 != 0)
         self._noise_columns: dict[str, tuple[int, int, float]] = {}
         column = 0
@@ -187,62 +465,40 @@ class CompiledCircuit:
         stds = {std for _, _, std in self._noise_columns.values()}
         self._noise_std = stds.pop() if len(stds) == 1 else None  # one level for all: scale once
 
-        self._inputs = []
-        self._updates: list[_Update] = []
-        self._needs_snapshot = False
-        for name in self.order:
-            pop = circuit.population(name)
-            if pop.kind == "input":
-                encoder = get_encoder(name, pop.encoder)
-                self._check_encoder(pop, encoder)
-                self._inputs.append((
-                    self.cells[name], encoder, tuple(p.name for p in pop.ports), dict(pop.encoder_params), name,
-                ))
-                continue
-            if pop.kind == "leaky":
-                if dt_s is None or not dt_s > 0:
-                    raise CircuitError(f"population {name!r} is leaky: compile with dt_s > 0 (got {dt_s!r})")
-                if dt_s > 0.5 * pop.tau_s:
-                    raise CircuitError(
-                        f"population {name!r}: dt_s = {dt_s:g} s is longer than half its tau_s = {pop.tau_s:g} s; "
-                        "Euler integration would oscillate or diverge — use dt_s <= tau_s / 2"
-                    )
-            now, prev = [], []
-            for source in circuit.graph.predecessors(name):
-                edge = circuit.graph.edges[source, name]
-                # A delayed connection from a population already updated this step reads the snapshot.
-                (prev if edge["delay"] and position[source] < position[name] else now).append(
-                    (source, edge["weights"]))
-            reads = self._reads(now, pop.size, False) + self._reads(prev, pop.size, True)
-            self._needs_snapshot |= bool(prev)
-            activation, params, bias = ACTIVATIONS[pop.activation], dict(pop.params), float(pop.bias)
-            if pop.activation == "logistic" and pop.kind != "integrator":
-                # σ(a(W x + b) − c) = 1 / (1 + exp(−a W x − a b + c)): scale the weights by −a once.
-                slope, offset = params.get("slope", 1.0), params.get("bias", 0.0)
-                reads = [(snap, span, weights * -slope, diagonal) for snap, span, weights, diagonal in reads]
-                activation, params, bias = logistic_of_negated, {}, -slope * bias + offset
-            self._updates.append(_Update(
-                name=name, kind=pop.kind, cells=self.cells[name], reads=reads,
-                bias=bias, activation=activation,
-                activation_params=params, noise_columns=self._noise_columns.get(name),
-                clip=pop.clip, leak_fraction=(dt_s / pop.tau_s) if pop.kind == "leaky" else 0.0,
-                gain=float(pop.gain), leak=float(pop.leak), drive_clip=pop.drive_clip,
-                memory_clip=pop.memory_clip,
-                in_place=pop.kind == "rate" and len(reads) == 1 and not reads[0][0]
-                and isinstance(reads[0][2], np.ndarray) and not _overlaps(reads[0][1], self.cells[name]),
-            ))
-        self._outputs = [(p.ports[0].name, self.cells[p.name]) for p in
-                         (circuit.population(n) for n in self.order) if p.kind == "output"]
-        self._memory_names = [u.name for u in self._updates if u.kind == "integrator"]
+    def _build_input(self, pop) -> tuple:
+        """An input population: its encoder, checked to make ``pop.size`` values from its ports."""
+        encoder = get_encoder(pop.name, pop.encoder)
+        self._check_encoder(pop, encoder)
+        return self.cells[pop.name], encoder, tuple(p.name for p in pop.ports), dict(pop.encoder_params), pop.name
 
-        if seeds is None:
-            if seed is None:
-                seed = int(np.random.SeedSequence().entropy % (2**31))
-            seeds = [int(seed) + i for i in range(self.batch)]
-        self.seeds = seeds
-        self.reset()
+    def _build_population(self, pop, position: dict[str, int]) -> _PopulationStep:
+        """A rate, output, leaky or integrator population: its product, activation and kind's update."""
+        name = pop.name
+        if pop.kind == "leaky":
+            check_leaky_step(name, pop.tau_s, self.dt_s)
+        now, prev = [], []
+        for source in self.circuit.graph.predecessors(name):
+            edge = self.circuit.graph.edges[source, name]
+            # A delayed connection from a population already updated this step reads the snapshot.
+            (prev if edge["delay"] and position[source] < position[name] else now).append((source, edge["weights"]))
+        self._needs_snapshot |= bool(prev)
+        activation, params, bias = ACTIVATIONS[pop.activation], dict(pop.params), float(pop.bias)
+        scale = 1.0
+        if pop.activation == "logistic" and pop.kind != "integrator":
+            # σ(a(W x + b) − c) = 1 / (1 + exp(−a W x − a b + c)): scale the weights by −a once.
+            slope, offset = params.get("slope", 1.0), params.get("bias", 0.0)
+            scale = -slope
+            activation, params, bias = logistic_of_negated, {}, -slope * bias + offset
+        reads = self._reads(now, pop.size, False, scale) + self._reads(prev, pop.size, True, scale)
+        product = _Product(reads, pop.size, self.dtype, self.sparse)
+        common = (name, self.cells[name], product, bias, activation, params, self._noise_columns.get(name), pop.clip)
+        if pop.kind == "leaky":
+            return _LeakyStep(*common, leak_fraction=self.dt_s / pop.tau_s)
+        if pop.kind == "integrator":
+            return _IntegratorStep(*common, gain=float(pop.gain), leak=float(pop.leak), drive_clip=pop.drive_clip,
+                                   memory_clip=pop.memory_clip)
+        return _RateStep(*common)
 
-    # -- building -------------------------------------------------------------------------------
     @staticmethod
     def _check_encoder(pop, encoder) -> None:
         """The encoder must turn its ports into exactly ``pop.size`` values per agent."""
@@ -260,12 +516,12 @@ class CompiledCircuit:
                 f"{', '.join(f'{p.name} {p.shape}' for p in pop.ports)}"
             )
 
-    def _reads(self, sources: list[tuple[str, np.ndarray]], size: int, from_snapshot: bool) -> list:
-        """Group sources lying close together in the state into one matrix product each.
+    def _reads(self, sources: list[tuple[str, np.ndarray]], size: int, from_snapshot: bool,
+               scale: float) -> list[tuple[bool, int, np.ndarray]]:
+        """Group sources lying close together in the state into one term each.
 
-        Sources are merged while at least half of the merged span is real source cells (a wide
-        span of mostly zero rows costs more than a second product). A square diagonal block (a
-        one-to-one connection) becomes an element-wise product.
+        Sources are merged while at least half of the merged span is real source cells. Returns
+        (from_snapshot, first state row, weights (size, span)) per group.
         """
         groups: list[list[tuple[str, np.ndarray]]] = []
         for source, matrix in sorted(sources, key=lambda item: self.cells[item[0]].start):
@@ -285,15 +541,27 @@ class CompiledCircuit:
             for source, matrix in members:
                 cells = self.cells[source]
                 weights[:, cells.start - lo:cells.stop - lo] += matrix
-            diagonal = weights.shape[1] == size and not np.any(weights - np.diag(np.diag(weights)))
-            if diagonal:
-                weights = np.diag(weights).astype(self.dtype)[:, None]
-            elif self.sparse:
-                weights = scipy.sparse.csr_matrix(weights.astype(self.dtype))
-            else:
-                weights = weights.astype(self.dtype)
-            reads.append((from_snapshot, slice(lo, hi), weights, diagonal))
+            reads.append((from_snapshot, lo, weights * scale))
         return reads
+
+    def bytes_per_agent(self) -> int:
+        """About how many bytes of memory one agent needs (state, memory, buffers, noise, generator)."""
+        itemsize = self.dtype.itemsize
+        cells = self.total_cells * (2 if self._needs_snapshot else 1)
+        cells += sum(self.circuit.population(n).size * 2 for n in self._memory_names)
+        buffers = sum(u.product.buffer_bytes(1, itemsize) for u in self._updates)
+        noise = self._noise_width * itemsize * 2 + (RNG_BYTES if self._noise_width else 0)
+        return cells * itemsize + buffers + noise
+
+    def _check_size(self) -> None:
+        needed = self.batch * self.bytes_per_agent()
+        available = min(_available_memory_bytes(), DEFAULT_MEMORY_CAP_BYTES)
+        if needed > available:
+            raise CircuitError(
+                f"batch={self.batch} needs about {needed / 2**30:.3g} GiB for circuit {self.circuit.name!r} "
+                f"({self.bytes_per_agent()} bytes per agent) but only {available / 2**30:.3g} GiB are available; "
+                f"use a batch of at most {max(1, available // self.bytes_per_agent())}"
+            )
 
     # -- running --------------------------------------------------------------------------------
     def reset(self) -> None:
@@ -301,15 +569,23 @@ class CompiledCircuit:
         self._state = np.zeros((self.total_cells, self.batch), self.dtype)
         for name in self.order:
             self._state[self.cells[name]] = self.circuit.population(name).initial
+        self._snapshot = np.zeros_like(self._state) if self._needs_snapshot else None
         self._memory = {
             name: np.full((self.circuit.population(name).size, self.batch),
                           self.circuit.population(name).initial, self.dtype)
             for name in self._memory_names
         }
-        for name in self._memory_names:
-            self._state[self.cells[name]] = self._rates_of_memory(name)
+        for update in self._updates:
+            update.bind(self)
+        for update in self._updates:
+            if update.kind == "integrator":
+                update.rates_of_memory()
+        self._reset_noise()
+        self.steps = 0
+
+    def _reset_noise(self) -> None:
         # SFC64: as good for simulation noise as numpy's default PCG64, and faster here.
-        self._rngs = [np.random.Generator(np.random.SFC64(s)) for s in self.seeds]
+        self._rngs = [np.random.Generator(np.random.SFC64(s)) for s in self.seeds] if self._noise_width else []
         columns = self._noise_width
         bytes_per_step = max(1, self.batch * columns * self.dtype.itemsize)
         self._noise_block_steps = max(1, min(256, NOISE_BUFFER_BYTES // bytes_per_step))
@@ -324,12 +600,6 @@ class CompiledCircuit:
         # Gaussian: (word, agent, sample-in-word), word w of a step holding its columns 4w .. 4w + 3.
         self._noise = np.zeros((0, self.batch, 4), self.dtype)  # drawn at the first step
         self._noise_step = self._noise_block_steps  # empty: draw on the first step
-        self.steps = 0
-
-    def _rates_of_memory(self, name: str) -> np.ndarray:
-        update = next(u for u in self._updates if u.name == name)
-        rates = update.activation(self._memory[name].copy(), **update.activation_params)
-        return rates if update.clip is None else np.clip(rates, *update.clip, out=rates)
 
     def _draw_noise(self) -> np.ndarray:
         """This step's noise: (columns, agents) for table noise and small batches; otherwise
@@ -380,17 +650,42 @@ class CompiledCircuit:
         Parameters
         ----------
         inputs : dict of str to ndarray
-            One array per sensor port, shape (batch, *port_shape).
+            One array per sensor port, shape (batch, *port_shape), and nothing else. Unless
+            compiled with ``check_inputs=False``, every value must be finite and inside its port's
+            range (when one is declared).
 
         Returns
         -------
         dict of str to ndarray
             One array per motor port, shape (batch, *port_shape).
+
+        Raises
+        ------
+        PortError
+            Naming the port: missing, unknown, misshaped, not numbers, not finite or out of range.
         """
+        self._check_input_ports(inputs)
+        if self.check_inputs:
+            self._check_input_values(inputs)
+        state = self._state
+        dtype = self.dtype
+        for cells, encoder, ports, params, _ in self._inputs:
+            # Encoders compute in the circuit's arithmetic (float32 trig is several times faster).
+            values = [inputs[p] if inputs[p].dtype == dtype else inputs[p].astype(dtype) for p in ports]
+            state[cells] = encoder(*values, **params).T
+        if self._snapshot is not None:
+            np.copyto(self._snapshot, state)
+        noise = self._draw_noise() if self._noise_width else None
+        for update in self._updates:
+            update(noise)
+        self.steps += 1
+        return {port: state[cells].T.copy() for port, cells in self._outputs}
+
+    def _check_input_ports(self, inputs: dict) -> None:
+        """Names, shapes and dtypes of the inputs (always checked)."""
         if not isinstance(inputs, dict):
             raise PortError(f"circuit {self.circuit.name!r}: inputs must be a dict of port -> array, "
                             f"got {type(inputs).__name__}")
-        state = self._state
         shapes = self._sensor_shapes
         for port, shape in shapes.items():
             value = inputs.get(port)
@@ -399,62 +694,33 @@ class CompiledCircuit:
             if value.dtype.kind not in "fiu":
                 raise PortError(f"circuit {self.circuit.name!r}: port {port!r} needs numbers, got an array of "
                                 f"{value.dtype}")
+        if len(inputs) != len(shapes):
+            unknown = sorted(map(str, set(inputs) - set(shapes)))
+            raise PortError(f"circuit {self.circuit.name!r} has no input port {', '.join(map(repr, unknown))}; "
+                            f"its ports: {', '.join(shapes) or 'none'}")
+
+    def _check_input_values(self, inputs: dict) -> None:
+        """Every input finite, and inside its port's range where one is declared."""
         for port, low, high in self._sensor_ranges:
             value = inputs[port]
-            if not (value.min() >= low and value.max() <= high):  # False for NaN too
-                bad = value[~((value >= low) & (value <= high))].ravel()[0]
-                raise PortError(
-                    f"circuit {self.circuit.name!r}: port {port!r} accepts values in [{low:g}, {high:g}], got {bad!r}"
-                )
-        dtype = self.dtype
-        for cells, encoder, ports, params, _ in self._inputs:
-            # Encoders compute in the circuit's arithmetic (float32 trig is several times faster).
-            values = [inputs[p] if inputs[p].dtype == dtype else inputs[p].astype(dtype) for p in ports]
-            state[cells] = encoder(*values, **params).T
-        snapshot = state.copy() if self._needs_snapshot else None
-        noise = self._draw_noise() if self._noise_width else None
-
-        for u in self._updates:
-            # An in-place population's single product goes straight into its rows of the state.
-            target = state[u.cells] if u.in_place else None
-            net = None
-            for from_snapshot, span, weights, diagonal in u.reads:
-                source = snapshot[span] if from_snapshot else state[span]
-                if target is not None:
-                    term = (np.multiply if diagonal else np.matmul)(weights, source, out=target)
-                else:
-                    term = weights * source if diagonal else weights @ source
-                if net is None:
-                    net = term
-                else:
-                    net += term
-            if net is None:
-                net = np.zeros((u.cells.stop - u.cells.start, self.batch), self.dtype)
-            if u.bias:
-                net += u.bias
-            if u.kind == "integrator":
-                if u.drive_clip is not None:
-                    _clip(net, *u.drive_clip, out=net)
-                memory = self._memory[u.name]
-                memory += u.gain * net
-                if u.leak:
-                    memory -= u.leak
-                if u.memory_clip is not None:
-                    _clip(memory, *u.memory_clip, out=memory)
-                rates = u.activation(memory.copy(), **u.activation_params)
+            if value.dtype.kind != "f":
+                lowest, highest = value.min(), value.max()
+                if lowest >= low and highest <= high:
+                    continue
+            elif low == -np.inf and high == np.inf:
+                if np.isfinite(value.sum()) or np.isfinite(value).all():  # a sum overflows or is NaN
+                    continue
             else:
-                rates = u.activation(net, **u.activation_params)
-                if u.kind == "leaky":
-                    previous = state[u.cells]
-                    rates = previous + u.leak_fraction * (rates - previous)
-            if u.noise_columns is not None:
-                self._add_noise(rates, noise, u.noise_columns)
-            if u.clip is not None:
-                _clip(rates, *u.clip, out=rates)
-            if rates is not target:  # activations work in place, so an in-place population is done
-                state[u.cells] = rates
-        self.steps += 1
-        return {port: state[cells].T.copy() for port, cells in self._outputs}
+                lowest, highest = value.min(), value.max()  # NaN when any value is NaN
+                if lowest >= low and highest <= high and np.isfinite(lowest) and np.isfinite(highest):
+                    continue
+            bad = value[~(np.isfinite(value) & (value >= low) & (value <= high))].ravel()[0]
+            if not np.isfinite(bad):
+                raise PortError(f"circuit {self.circuit.name!r}: port {port!r} needs finite values, got {bad!r} "
+                                "(compile with check_inputs=False to skip this check)")
+            raise PortError(
+                f"circuit {self.circuit.name!r}: port {port!r} accepts values in [{low:g}, {high:g}], got {bad!r}"
+            )
 
     def _add_noise(self, rates: np.ndarray, noise: np.ndarray, columns: tuple[int, int, float]) -> None:
         """Add this step's noise for one population (its ``noise_columns``) to its rates, in place."""
@@ -515,8 +781,18 @@ class CompiledCircuit:
         except (TypeError, ValueError):
             raise CircuitError(f"set_memory({name!r}): values must be numbers broadcastable to "
                                f"{self._memory[name].T.shape}, got {values!r}") from None
+        if not np.isfinite(values).all():
+            raise CircuitError(f"set_memory({name!r}): values must be finite, got "
+                               f"{values[~np.isfinite(values)].ravel()[0]!r}")
+        update = next(u for u in self._updates if u.name == name)
+        if update.memory_clip is not None:
+            low, high = update.memory_clip
+            if not (values.min() >= low and values.max() <= high):
+                bad = values[(values < low) | (values > high)].ravel()[0]
+                raise CircuitError(f"set_memory({name!r}): memory is kept in [{low:g}, {high:g}] "
+                                   f"(memory_clip), got {bad!r}")
         self._memory[name][...] = values.T
-        self._state[self.cells[name]] = self._rates_of_memory(name)
+        update.rates_of_memory()
 
     def all_finite(self) -> bool:
         """True while every rate and memory is finite (a cheap divergence check)."""
