@@ -3,20 +3,22 @@
 Backends register under the entry-point group ``neuronav.backends`` and are found by name
 (:mod:`neuronav.registry`). ``read`` is lazy: only the names asked for are computed.
 
-Articulated (physics) backends simulate one body and share these sensors, each read with a
+Articulated (physics) backends simulate one body and share the sensors of
+:data:`ARTICULATED_SENSORS` (the one list of them: a new sensor is declared there, read by
+:class:`neuronav.articulated.ArticulatedBackend` from each engine's reports), each read with a
 leading batch dimension of 1 (J hinge joints, C contact sites, O/W odour/wind sites):
-``joint_pos`` (J,) rad, ``joint_vel`` (J,) rad/s, ``joint_torque`` (J,) N*m, ``contact_force``
-(C, 3) N in the world frame, ``body_pos`` (3,) m, ``body_quat`` (4,) (w, x, y, z),
-``body_linvel`` (3,) m/s, ``body_angvel`` (3,) rad/s, ``heading`` (1,) rad clockwise from +y,
-``velocity`` (2,) m/s and ``position`` (2,) m in the world xy plane, ``odour_sites`` (O, 3) and
-``wind_sites`` (W, 3); they accept ``joint_targets`` (J,) rad for position-controlled joints
-(torque = kp (target - q) - kd q', clipped to each joint's max torque), and ``adhesion`` (C,)
-in [0, 1], the fraction of the world's ``adhesion_n`` each touching adhesive contact site gets (all
-1 after a reset: I2Bot's rule, force while touching; a controller can switch pads off in swing).
-``reset(seed, position_m=(x, y), yaw_rad=...)`` puts the body at its rest pose above the terrain;
-``position_m=(x, y, z)`` puts the root at that height instead, ``pitch_rad`` tilts the body
-nose-up about its lateral axis (π/2: head up, belly toward +x), e.g. to start it on a wall, and
-``spin_rad`` turns it about its own up axis first (:func:`start_pose`).
+
+{sensor_table}
+
+They accept ``joint_targets`` (J,) rad for position-controlled joints (torque = kp (target - q) -
+kd q', clipped to each joint's max torque), and ``adhesion`` (C,) in [0, 1], the fraction of the
+world's ``adhesion_n`` each touching adhesive contact site gets (all 1 after a reset: I2Bot's rule,
+force while touching; a controller can switch pads off in swing); both with or without the batch
+dimension. ``reset(seed, position_m=(x, y), yaw_rad=...)`` puts the body at its rest pose above the
+terrain (``seed``: None or an int >= 0); ``position_m=(x, y, z)`` puts the root at that height
+instead, ``pitch_rad`` tilts the body nose-up about its lateral axis (π/2: head up, belly toward
++x), e.g. to start it on a wall, and ``spin_rad`` turns it about its own up axis first
+(:func:`start_pose`). ``apply_force(0, name, force_n)`` pushes at a site or at a segment's origin.
 """
 
 from __future__ import annotations
@@ -31,13 +33,46 @@ from neuronav.errors import ConfigError, PortError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.world import World
 
+# Sensors of articulated backends: (name, shape with J/C/O/W for the body's sizes, units, what);
+# the table in the module docstring says the same in words.
+ARTICULATED_SENSORS: tuple[tuple[str, tuple, str, str], ...] = (
+    ("joint_pos", ("J",), "rad", "joint angles"),
+    ("joint_vel", ("J",), "rad/s", "joint velocities"),
+    ("joint_torque", ("J",), "N*m", "control torque of the last physics step"),
+    ("contact_force", ("C", 3), "N", "total force on each contact site's geom, world frame"),
+    ("body_pos", (3,), "m", "root frame origin"),
+    ("body_quat", (4,), "", "root rotation (w, x, y, z), w >= 0"),
+    ("body_linvel", (3,), "m/s", "root origin velocity, world axes"),
+    ("body_angvel", (3,), "rad/s", "root angular velocity, world axes"),
+    ("heading", (1,), "rad", "body +x axis clockwise from world +y"),
+    ("velocity", (2,), "m/s", "body_linvel in the xy plane"),
+    ("position", (2,), "m", "body_pos in the xy plane"),
+    ("odour_sites", ("O", 3), "m", "odour sites, world frame"),
+    ("wind_sites", ("W", 3), "m", "wind sites, world frame"),
+)
+
+
+def _sensor_table() -> str:
+    """The module docstring's table of :data:`ARTICULATED_SENSORS` (written from it: one source)."""
+    rows = [(f"``{name}``", "(" + ", ".join(map(str, shape)) + ("," if len(shape) == 1 else "") + ")", units, what)
+            for name, shape, units, what in ARTICULATED_SENSORS]
+    widths = [max(len(row[k]) for row in rows + [("sensor", "shape", "units", "what")]) for k in range(4)]
+    rule = "  ".join("=" * w for w in widths)
+    header = "  ".join(h.ljust(w) for h, w in zip(("sensor", "shape", "units", "what"), widths)).rstrip()
+    lines = [rule, header, rule]
+    lines += ["  ".join(c.ljust(w) for c, w in zip(row, widths)).rstrip() for row in rows]
+    return "\n".join([*lines, rule])
+
+
+__doc__ = __doc__.replace("{sensor_table}", _sensor_table())
+
 
 def adhesion_port(contact_sites: int) -> MotorSpec:
     """The ``adhesion`` command of a physics backend whose body has ``contact_sites`` contact sites."""
     return MotorSpec("adhesion", (contact_sites,), "fraction of adhesion_n", range=(0.0, 1.0))
 
 
-def _quat_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def quat_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """The rotation b, then a, as (w, x, y, z) quaternions."""
     return np.array([a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3],
                      a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2],
@@ -84,7 +119,7 @@ def start_pose(position_m, yaw_rad: float, pitch_rad: float, where: str,
     # Nose-up is a negative turn about the body's +y (left) axis.
     pitch = np.array([np.cos(pitch_rad / 2.0), 0.0, -np.sin(pitch_rad / 2.0), 0.0])
     spin = np.array([np.cos(spin_rad / 2.0), 0.0, 0.0, np.sin(spin_rad / 2.0)])
-    quat = _quat_product(yaw, _quat_product(pitch, spin))
+    quat = quat_product(yaw, quat_product(pitch, spin))
     return np.append(position, 0.0)[:3], position.size == 3, quat
 
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from neuronav.articulated import follow_axes  # noqa: F401 - the follow camera's axes, re-exported
 from neuronav.loop import AgentLoop, Hook
 
 
@@ -34,19 +35,3 @@ def write_video(path: Path, frames: list[np.ndarray], fps: float) -> None:
         for frame in frames:
             writer.append_data(frame)
     temporary.replace(path)
-
-
-def follow_axes(rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Forward and up directions for a camera that follows a body, from its rotation matrix (3, 3).
-
-    A body on the floor (its up axis within 60° of vertical) is followed along its heading, with
-    the world's up: the view does not rock with the gait. A body on a wall or a ceiling is followed
-    in its own frame: behind it along its forward axis, above it along its up axis.
-    """
-    rotation = np.asarray(rotation, dtype=float)
-    forward, up = rotation[:, 0].copy(), rotation[:, 2].copy()
-    if up[2] >= 0.5:
-        forward[2], up = 0.0, np.array([0.0, 0.0, 1.0])
-        norm = np.linalg.norm(forward)
-        forward = forward / norm if norm > 1e-9 else np.array([1.0, 0.0, 0.0])
-    return forward, up

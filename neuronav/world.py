@@ -9,6 +9,7 @@ command). Articulated bodies are declared with the body-spec types.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -55,30 +56,52 @@ class Ground:
 
         Zero-mean Gaussian-filtered white noise scaled to ``roughness_m``, then shifted so that the
         lowest point is at 0 (engines' heightfields start at the ground plane). Flat and wall
-        grounds are all zeros.
+        grounds are all zeros. A copy of the field computed once per ground.
         """
-        if self.kind != "uneven" or self.roughness_m == 0:
-            return np.zeros((self.cells, self.cells))
-        from scipy.ndimage import gaussian_filter
+        return self._heights.copy()
 
-        rng = np.random.default_rng(self.seed)
-        spacing_m = self.size_m / (self.cells - 1)
-        field = gaussian_filter(rng.standard_normal((self.cells, self.cells)), self.feature_m / spacing_m,
-                                mode="wrap")
-        field *= self.roughness_m / field.std()
-        return field - field.min()
+    @property
+    def is_flat(self) -> bool:
+        """Whether the terrain is at height 0 everywhere (flat, wall, or uneven with no roughness)."""
+        return self.kind != "uneven" or self.roughness_m == 0
 
-    def height_at(self, x_m: float, y_m: float) -> float:
-        """Terrain height under (x, y), bilinear between heightfield samples."""
-        heights = self.heights_m()
-        half = self.size_m / 2.0
-        scale = (self.cells - 1) / self.size_m
-        u = np.clip((x_m + half) * scale, 0, self.cells - 1.000001)
-        v = np.clip((y_m + half) * scale, 0, self.cells - 1.000001)
-        j, i = int(u), int(v)
-        fu, fv = u - j, v - i
-        return float((1 - fv) * ((1 - fu) * heights[i, j] + fu * heights[i, j + 1])
-                     + fv * ((1 - fu) * heights[i + 1, j] + fu * heights[i + 1, j + 1]))
+    @cached_property
+    def _heights(self) -> np.ndarray:
+        """The heightfield, computed on first use and kept (read-only) with this frozen ground."""
+        if self.is_flat:
+            heights = np.zeros((self.cells, self.cells))
+        else:
+            from scipy.ndimage import gaussian_filter
+
+            rng = np.random.default_rng(self.seed)
+            spacing_m = self.size_m / (self.cells - 1)
+            heights = gaussian_filter(rng.standard_normal((self.cells, self.cells)), self.feature_m / spacing_m,
+                                      mode="wrap")
+            heights *= self.roughness_m / heights.std()
+            heights -= heights.min()
+        heights.setflags(write=False)
+        return heights
+
+    def height_at(self, x_m, y_m):
+        """Terrain height (m) under (x, y), bilinear between heightfield samples; the one terrain lookup.
+
+        ``x_m`` and ``y_m`` are numbers (a float comes back) or arrays of one shape (an array of
+        it). Outside the field the edge samples continue.
+        """
+        scalar = np.ndim(x_m) == 0 and np.ndim(y_m) == 0
+        x, y = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(y_m, dtype=float))
+        if self.is_flat:
+            heights = np.zeros(x.shape)
+        else:
+            half, scale = self.size_m / 2.0, (self.cells - 1) / self.size_m
+            u = np.clip((x + half) * scale, 0, self.cells - 1.000001)
+            v = np.clip((y + half) * scale, 0, self.cells - 1.000001)
+            j, i = u.astype(int), v.astype(int)
+            fu, fv = u - j, v - i
+            h = self._heights
+            heights = ((1 - fv) * ((1 - fu) * h[i, j] + fu * h[i, j + 1])
+                       + fv * ((1 - fu) * h[i + 1, j] + fu * h[i + 1, j + 1]))
+        return float(heights) if scalar else heights
 
 
 @dataclass(frozen=True)

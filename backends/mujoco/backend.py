@@ -19,7 +19,11 @@ Cameras
 -------
 Planar cameras render directly. A spherical camera renders up to six 90° cube faces and stitches
 them into an equirectangular image by nearest-neighbour lookup (see :func:`mjcf.panorama_lookup`).
-``"follow"`` is a 640x480 view from behind and above the root, turned with the body's yaw.
+``"follow"`` is the shared follow view (:func:`neuronav.articulated.follow_view`): the free camera
+looks at its target from its distance, with the model's free-camera field of view set to it.
+
+Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
+framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to MuJoCo.
 """
 
 from __future__ import annotations
@@ -28,35 +32,16 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from collections.abc import Iterable, Sequence  # noqa: E402
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from backends.mujoco.mjcf import FOLLOW_SIZE_PX, ModelNames, compile_model  # noqa: E402
-from neuronav.backend import BackendBase, Capabilities, adhesion_port, start_pose  # noqa: E402
+from backends.mujoco.mjcf import ModelNames, compile_model  # noqa: E402
+from neuronav.articulated import ArticulatedBackend, FollowView  # noqa: E402
 from neuronav.body import BodySpec  # noqa: E402
-from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
-from neuronav.ports import MotorSpec, SensorSpec  # noqa: E402
-from neuronav.video import follow_axes  # noqa: E402
+from neuronav.errors import PortError, SimulationError  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
-# Sensor names, units and per-agent shapes; "J", "C", "O", "W" are filled in from the body at load.
-_SENSORS = (
-    ("joint_pos", ("J",), "rad"),
-    ("joint_vel", ("J",), "rad/s"),
-    ("joint_torque", ("J",), "N*m"),
-    ("contact_force", ("C", 3), "N"),
-    ("body_pos", (3,), "m"),
-    ("body_quat", (4,), ""),
-    ("body_linvel", (3,), "m/s"),
-    ("body_angvel", (3,), "rad/s"),
-    ("heading", (1,), "rad"),
-    ("velocity", (2,), "m/s"),
-    ("position", (2,), "m"),
-    ("odour_sites", ("O", 3), "m"),
-    ("wind_sites", ("W", 3), "m"),
-)
 _FATAL_WARNINGS = {
     mujoco.mjtWarning.mjWARN_BADQPOS: "bad joint position (NaN, inf or huge)",
     mujoco.mjtWarning.mjWARN_BADQVEL: "bad velocity (NaN, inf or huge)",
@@ -69,19 +54,9 @@ _OTHER_WARNINGS = {
     mujoco.mjtWarning.mjWARN_CNSTRFULL: "constraint buffer full: constraints were dropped",
 }
 _FATAL_INDEX = np.array([int(w) for w in _FATAL_WARNINGS])
-# The follow camera looks 25° down at a body on the floor (the tangent: its tilt toward the body's up).
-FOLLOW_TILT = float(np.tan(np.radians(25.0)))
 
 
-def _placeholder_capabilities() -> Capabilities:
-    """Before load: every sensor name, with (1,)-shaped placeholders for the body-sized dimensions."""
-    sensors = tuple(SensorSpec(name, tuple(1 if isinstance(n, str) else n for n in shape), units)
-                    for name, shape, units in _SENSORS)
-    return Capabilities(name="mujoco", sensors=sensors, motors=(MotorSpec("joint_targets", (1,), "rad"),),
-                        batched=False, can_render=True)
-
-
-class MujocoBackend(BackendBase):
+class MujocoBackend(ArticulatedBackend):
     """One articulated body simulated by MuJoCo; implements the backend protocol (see DESIGN.md).
 
     Parameters
@@ -99,98 +74,55 @@ class MujocoBackend(BackendBase):
         MuJoCo warnings seen so far (kept across resets).
     """
 
+    engine = "mujoco"
+
     def __init__(self, timestep_s: float = 0.002) -> None:
-        if not (np.isfinite(timestep_s) and timestep_s > 0):
-            raise ConfigError(f"mujoco backend: timestep_s must be a positive number of seconds, got {timestep_s!r}")
-        self._timestep_s = float(timestep_s)
-        self.capabilities = _placeholder_capabilities()
+        super().__init__(timestep_s)
         self.model: mujoco.MjModel | None = None
         self.data: mujoco.MjData | None = None
         self.names: ModelNames | None = None
-        self.body: BodySpec | None = None
-        self.world: World | None = None
-        self.warnings: list[str] = []
-        # What the backend did on its own (e.g. lifting the body on reset): information, not a problem.
-        self.notes: list[str] = []
         self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
-        self._pending: list[tuple[tuple[str, int], np.ndarray]] = []
+        self._pending: list[tuple[int, np.ndarray, np.ndarray]] = []
 
-    # -- protocol ------------------------------------------------------------------------------
-    def load(self, world: World, bodies: Sequence[BodySpec]) -> None:
-        """Build the MuJoCo model of ``world`` with exactly one body, then :meth:`reset`.
-
-        Raises
-        ------
-        ConfigError
-            Not exactly one :class:`BodySpec`, not a :class:`World`, or a model MuJoCo rejects.
-        """
-        if not isinstance(world, World):
-            raise ConfigError(f"mujoco backend: load needs a neuronav World, got {type(world).__name__}")
-        bodies = list(bodies)
-        if len(bodies) != 1 or not isinstance(bodies[0], BodySpec):
-            kinds = ", ".join(type(b).__name__ for b in bodies) or "nothing"
-            raise ConfigError(f"the mujoco backend simulates exactly one BodySpec, got {kinds}")
-        body = bodies[0]
+    # -- engine hooks: building and resetting --------------------------------------------------------
+    def _load_engine(self, world: World, body: BodySpec) -> None:
+        """Compile the MJCF of ``world`` and ``body`` (a model MuJoCo rejects is a ConfigError)."""
         self._close_renderers()
         model, names = compile_model(world, body, self._timestep_s)
         self.model, self.data, self.names = model, mujoco.MjData(model), names
-        self.body, self.world = body, world
-        self._index(model, names, body)
-        self.capabilities = self._capabilities(body)
-        self.reset()
+        self._index(model, names, body, world)
 
-    def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
-              pitch_rad: float = 0.0, spin_rad: float = 0.0) -> None:
-        """Rest pose, at rest, root at ``spawn_height_m`` above the terrain under ``position_m``, facing ``yaw_rad``.
-
-        ``yaw_rad`` turns the body counter-clockwise from +x (its heading is then pi/2 - yaw);
-        ``position_m=(x, y, z)``, ``pitch_rad`` and ``spin_rad`` place it anywhere, e.g. on a wall
-        (:func:`neuronav.backend.start_pose`). Every pad's adhesion is switched fully on.
-        MuJoCo is deterministic, so ``seed`` changes nothing; it is accepted for the protocol.
-        """
-        model, data = self._require()
-        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "mujoco", spin_rad)
-        x_m, y_m = float(position[0]), float(position[1])
-        self._seed = seed
+    def _reset_engine(self, position: np.ndarray, pose_quat: np.ndarray) -> None:
+        model, data = self.model, self.data
         mujoco.mj_resetData(model, data)
-        ground_z = self.world.ground.height_at(x_m, y_m) + self.body.spawn_height_m
-        root_pos = np.array([x_m, y_m, position[2] if z_given else ground_z])
         root_quat = np.zeros(4)
         mujoco.mju_mulQuat(root_quat, pose_quat, np.asarray(self.body.root.quat, float))
         if self._free_qpos is not None:
-            data.qpos[self._free_qpos:self._free_qpos + 3] = root_pos
+            data.qpos[self._free_qpos:self._free_qpos + 3] = position
             data.qpos[self._free_qpos + 3:self._free_qpos + 7] = root_quat
         else:  # a root welded to the world: move the weld itself
-            model.body_pos[self._root] = root_pos
+            model.body_pos[self._root] = position
             model.body_quat[self._root] = root_quat
         rest = self.body.rest_pose_rad()
         data.qpos[self._qpos] = rest
         data.ctrl[:] = rest
         self._pending.clear()
         mujoco.mj_forward(model, data)
-        self._adhesion_scale = np.ones(len(self._contact_sites))
-        if self._free_qpos is not None and not z_given:
-            # On rough ground a claw can start inside a bump and stay trapped there: lift the body
-            # until nothing of it starts inside the world (as the PyBullet backend does).
-            lifted = 0.0
-            for _ in range(20):  # contact depths are local: lift until no overlap is left
-                sink = self._deepest_penetration_m(model, data)
-                if sink <= 1e-4:
-                    break
-                data.qpos[self._free_qpos + 2] += sink + 1e-3
-                lifted += sink + 1e-3
-                mujoco.mj_forward(model, data)
-            if lifted:
-                note = "reset lifted the body above spawn_height_m so that no part starts inside the terrain"
-                if not any(n.startswith(note) for n in self.notes):
-                    self.notes.append(f"{note} (first at {[x_m, y_m]}, by {lifted:.4f} m)")
         self._torque = data.actuator_force.copy()
         self._forces_current = True
         self._seen = np.zeros(len(data.warning.number), dtype=int)
         self._diverged = ""  # the reason, once a step has failed
 
-    def _deepest_penetration_m(self, model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    def _raise_root(self, dz_m: float) -> None:
+        if self._free_qpos is not None:
+            self.data.qpos[self._free_qpos + 2] += dz_m
+        else:
+            self.model.body_pos[self._root, 2] += dz_m
+        mujoco.mj_forward(self.model, self.data)
+
+    def _penetration_m(self) -> float:
         """How far the deepest body geom reaches into a world geom (0 when nothing overlaps)."""
+        model, data = self.model, self.data
         deepest = 0.0
         for i in range(data.ncon):
             contact = data.contact[i]
@@ -198,10 +130,6 @@ class MujocoBackend(BackendBase):
             if (bodies[0] == 0) != (bodies[1] == 0):  # exactly one side is the world
                 deepest = max(deepest, -float(contact.dist))
         return deepest
-
-    @property
-    def timestep(self) -> float:
-        return self._timestep_s
 
     @property
     def time(self) -> float:
@@ -215,15 +143,14 @@ class MujocoBackend(BackendBase):
         SimulationError
             When the state becomes non-finite or MuJoCo reports an unstable step.
         """
-        model, data = self._require()
-        if int(n) != n or n < 0:
-            raise ConfigError(f"mujoco step: n must be a whole number of steps >= 0, got {n!r}")
+        model, data = self._require_model()
+        n = self._check_steps(n)
         if self._diverged:
             raise SimulationError(f"{self._diverged} (earlier); call reset() to continue")
         fatal_seen = self._seen[_FATAL_INDEX]
         forces = bool(self._pending) or self._adhesion_n > 0
         try:
-            for _ in range(int(n)):
+            for _ in range(n):
                 if forces:
                     self._external_forces(model, data)
                 mujoco.mj_step2(model, data)
@@ -249,7 +176,7 @@ class MujocoBackend(BackendBase):
             ``joint_axis_world`` {joint: unit (3,) at the current pose}, ``site_pos_m``
             {site: (3,) world position}.
         """
-        model, data = self._require()
+        model, data = self._require_model()
         mujoco.mj_kinematics(model, data)
         body = self.body
         masses = {s.name: float(model.body_mass[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, s.name)])
@@ -269,7 +196,7 @@ class MujocoBackend(BackendBase):
         The actuators hold ``targets`` (J,) when given, else the last targets (the control law is
         part of the model), so replaying a walk's targets costs exactly MuJoCo's own steps.
         """
-        model, data = self._require()
+        model, data = self._require_model()
         if targets is not None:
             data.ctrl[:] = targets
         for _ in range(int(n)):
@@ -278,36 +205,8 @@ class MujocoBackend(BackendBase):
         self._torque = data.actuator_force.copy()
         self._forces_current = False
 
-    def read(self, names: Iterable[str]) -> dict[str, np.ndarray]:
-        """Sensor values, each with a leading batch dimension of 1; only the names asked for are computed."""
-        model, data = self._require()
-        out = {}
-        for name in self._check_read(names):
-            out[name] = np.asarray(self._sensor(name, model, data), dtype=float)[None].copy()
-        return out
-
-    def write(self, commands: dict[str, np.ndarray]) -> None:
-        """``joint_targets``: shape (1, J) or (J,), rad, in :attr:`BodySpec.joint_names` order;
-        ``adhesion``: (1, C), each contact site's fraction of the world's ``adhesion_n``."""
-        self._require()
-        commands = dict(commands)
-        for name, value in commands.items():
-            array = np.asarray(value, dtype=float)
-            if name == "joint_targets" and array.ndim == 1:
-                commands[name] = array[None]
-        checked = self._check_write(commands, batch=1)
-        if "joint_targets" in checked:
-            self.data.ctrl[:] = checked["joint_targets"][0]
-        if "adhesion" in checked:
-            self._adhesion_scale = self._adhesion_fractions(checked["adhesion"])
-
-    def render(self, camera: str) -> np.ndarray:
-        """A uint8 (H, W, 3) image from a body camera, or ``"follow"`` (640x480, behind and above the root)."""
-        model, data = self._require()
-        if camera == "follow":
-            renderer = self._renderer(*FOLLOW_SIZE_PX)
-            renderer.update_scene(data, camera=self._follow_camera(data))
-            return renderer.render().copy()
+    def _render_camera(self, camera: str) -> np.ndarray:
+        model, data = self._require_model()
         if camera in self.names.cameras:
             spec = next(c for c in self.body.cameras if c.name == camera)
             renderer = self._renderer(spec.width_px, spec.height_px)
@@ -324,31 +223,22 @@ class MujocoBackend(BackendBase):
         known = ["follow", *self.names.cameras, *self.names.panoramas]
         raise PortError(f"mujoco backend has no camera {camera!r}; available: {', '.join(known)}")
 
-    def apply_force(self, body: int, site: str, force_n) -> None:
-        """Add a world-frame force (3,) N at ``site`` (any site or segment name) during the next :meth:`step` call."""
-        model, _ = self._require()
-        if int(body) != 0:
-            raise ConfigError(f"mujoco apply_force: body {body} out of range; this backend simulates body 0 only")
-        force = np.asarray(force_n, dtype=float).reshape(-1)
-        if force.shape != (3,) or not np.isfinite(force).all():
-            raise ConfigError(f"mujoco apply_force: force_n must be 3 finite numbers (N, world frame), got {force_n!r}")
-        site_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, site)
-        if site_id >= 0:
-            self._pending.append((("site", site_id), force))
-            return
-        body_id = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, site)
-        if body_id >= 0 and site in {s.name for s in self.body.segments}:
-            self._pending.append((("body", body_id), force))
-            return
-        known = [s.name for s in self.body.sites] + [s.name for s in self.body.segments]
-        raise ConfigError(f"mujoco apply_force: unknown site {site!r}; sites and segments: {', '.join(known)}")
+    def _render_follow(self, view: FollowView) -> np.ndarray:
+        self.model.vis.global_.fovy = view.fov_deg
+        renderer = self._renderer(*view.size_px)
+        renderer.update_scene(self.data, camera=self._follow_camera(view))
+        return renderer.render().copy()
+
+    def _queue_force(self, segment: str, point_m: np.ndarray, force_n: np.ndarray) -> None:
+        body_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, segment)
+        self._pending.append((body_id, point_m, force_n))
 
     def close(self) -> None:
         """Free the renderers (their GL contexts); the model stays readable."""
         self._close_renderers()
 
     # -- load helpers --------------------------------------------------------------------------
-    def _index(self, model: mujoco.MjModel, names: ModelNames, body: BodySpec) -> None:
+    def _index(self, model: mujoco.MjModel, names: ModelNames, body: BodySpec, world: World) -> None:
         def ids(kind, items):
             found = np.array([mujoco.mj_name2id(model, kind, n) for n in items], dtype=int)
             assert (found >= 0).all(), f"mujoco backend: a {kind} of {items} is missing from the model"
@@ -374,38 +264,15 @@ class MujocoBackend(BackendBase):
             self._site_geoms.append(geom_ids)
         self._odour = ids(mujoco.mjtObj.mjOBJ_SITE, [s.name for s in body.sites_of_kind("odour")])
         self._wind = ids(mujoco.mjtObj.mjOBJ_SITE, [s.name for s in body.sites_of_kind("wind")])
-        self._adhesion_n = float(self.world.adhesion_n)
-        # Follow distance: a few body sizes, from the rest pose's geom bounds around the root.
-        data = mujoco.MjData(model)
-        mujoco.mj_forward(model, data)
-        body_geoms = np.flatnonzero(model.geom_bodyid > 0)
-        offsets = np.linalg.norm(data.geom_xpos[body_geoms] - data.xpos[self._root], axis=1)
-        reach = offsets + model.geom_rbound[body_geoms]
-        self._follow_distance_m = float(max(3.0 * reach.max(), 0.3))
-
-    def _capabilities(self, body: BodySpec) -> Capabilities:
-        sizes = {"J": len(body.joints), "C": len(body.sites_of_kind("contact")),
-                 "O": len(body.sites_of_kind("odour")), "W": len(body.sites_of_kind("wind"))}
-        sensors = []
-        for name, shape, units in _SENSORS:
-            shape = tuple(sizes[n] if isinstance(n, str) else n for n in shape)
-            if all(n > 0 for n in shape):  # a body without e.g. odour sites offers no odour_sites
-                sensors.append(SensorSpec(name, shape, units))
-        motors = (MotorSpec("joint_targets", (sizes["J"],), "rad"),) if sizes["J"] else ()
-        if sizes["C"]:
-            motors += (adhesion_port(sizes["C"]),)
-        return Capabilities(name="mujoco", sensors=tuple(sensors), motors=motors, batched=False, can_render=True)
+        self._adhesion_n = float(world.adhesion_n)
 
     # -- step helpers --------------------------------------------------------------------------
     def _external_forces(self, model: mujoco.MjModel, data: mujoco.MjData, pending: bool = True) -> None:
         """Fill ``xfrc_applied`` with adhesion (and the pending forces) for the state about to be stepped."""
         xfrc = data.xfrc_applied
         xfrc[:] = 0.0
-        for (kind, index), force in self._pending if pending else ():
-            if kind == "site":
-                body_id, point = model.site_bodyid[index], data.site_xpos[index]
-            else:
-                body_id, point = index, data.xpos[index]
+        for body_id, local, force in self._pending if pending else ():
+            point = data.xpos[body_id] + data.xmat[body_id].reshape(3, 3) @ local
             self._push(xfrc, data, body_id, point, force)
         if self._adhesion_n > 0 and data.ncon:
             self._adhesion(model, data, xfrc)
@@ -466,38 +333,31 @@ class MujocoBackend(BackendBase):
         if self._diverged:
             raise SimulationError(f"{self._diverged}; call reset() to continue")
 
-    # -- sensors -------------------------------------------------------------------------------
-    def _sensor(self, name: str, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-        root = self._root
-        if name == "joint_pos":
-            return data.qpos[self._qpos]
-        if name == "joint_vel":
-            return data.qvel[self._dof]
-        if name == "joint_torque":
-            return self._torque[self._actuators]
-        if name == "contact_force":
-            return self._contact_forces(model, data)
-        if name == "body_pos":
-            return data.xpos[root]
-        if name == "body_quat":
-            return data.xquat[root]
-        if name in ("body_linvel", "body_angvel", "velocity"):
-            velocity = np.zeros(6)  # (angular, linear) of the root frame, world axes
-            mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_XBODY, root, velocity, 0)
-            return {"body_linvel": velocity[3:], "body_angvel": velocity[:3], "velocity": velocity[3:5]}[name]
-        if name == "heading":
-            forward = data.xmat[root].reshape(3, 3)[:, 0]  # body +x in the world
-            return np.array([np.arctan2(forward[0], forward[1])])
-        if name == "position":
-            return data.xpos[root, :2]
-        if name == "odour_sites":
-            return data.site_xpos[self._odour]
-        if name == "wind_sites":
-            return data.site_xpos[self._wind]
-        raise PortError(f"mujoco backend: sensor {name!r} is not implemented")  # unreachable after _check_read
+    # -- engine hooks: sensors -------------------------------------------------------------------------
+    def _root_pose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        data, root = self.data, self._root
+        return data.xpos[root], data.xquat[root], data.xmat[root].reshape(3, 3)
 
-    def _contact_forces(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+    def _root_velocity(self) -> tuple[np.ndarray, np.ndarray]:
+        velocity = np.zeros(6)  # (angular, linear) of the root frame, world axes
+        mujoco.mj_objectVelocity(self.model, self.data, mujoco.mjtObj.mjOBJ_XBODY, self._root, velocity, 0)
+        return velocity[3:], velocity[:3]
+
+    def _joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.data.qpos[self._qpos], self.data.qvel[self._dof]
+
+    def _joint_torque(self) -> np.ndarray:
+        return self._torque[self._actuators]
+
+    def _site_positions(self, kind: str) -> np.ndarray:
+        return self.data.site_xpos[self._odour if kind == "odour" else self._wind]
+
+    def _set_joint_targets(self, targets: np.ndarray) -> None:
+        self.data.ctrl[:] = targets
+
+    def _contact_forces(self) -> np.ndarray:
         """World-frame total force ON each contact site's geoms, summed over their contacts."""
+        model, data = self.model, self.data
         forces = np.zeros((len(self._contact_sites), 3))
         if not data.ncon:
             return forces
@@ -532,16 +392,16 @@ class MujocoBackend(BackendBase):
             self._renderers[key] = mujoco.Renderer(self.model, height=key[1], width=key[0])
         return self._renderers[key]
 
-    def _follow_camera(self, data: mujoco.MjData) -> mujoco.MjvCamera:
-        forward, up = follow_axes(data.xmat[self._root].reshape(3, 3))
-        view = forward - FOLLOW_TILT * up  # from behind and above, looking at the root
-        view /= np.linalg.norm(view)
+    @staticmethod
+    def _follow_camera(view: FollowView) -> mujoco.MjvCamera:
+        """A free camera at ``view`` (its up is always world z: MuJoCo's free camera does not roll)."""
+        look = (view.target - view.eye) / view.distance_m
         camera = mujoco.MjvCamera()
         camera.type = mujoco.mjtCamera.mjCAMERA_FREE
-        camera.lookat[:] = data.xpos[self._root]
-        camera.distance = self._follow_distance_m
-        camera.azimuth = float(np.degrees(np.arctan2(view[1], view[0])))
-        camera.elevation = float(np.degrees(np.arcsin(np.clip(view[2], -1.0, 1.0))))
+        camera.lookat[:] = view.target
+        camera.distance = view.distance_m
+        camera.azimuth = float(np.degrees(np.arctan2(look[1], look[0])))
+        camera.elevation = float(np.degrees(np.arcsin(np.clip(look[2], -1.0, 1.0))))
         return camera
 
     def _close_renderers(self) -> None:
@@ -549,9 +409,13 @@ class MujocoBackend(BackendBase):
             renderer.close()
         self._renderers.clear()
 
-    def _require(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    def _require(self) -> BodySpec:
         if self.model is None:
             raise SimulationError("mujoco backend: call load(world, [body_spec]) first")
+        return self.body
+
+    def _require_model(self) -> tuple[mujoco.MjModel, mujoco.MjData]:
+        self._require()
         return self.model, self.data
 
     def __del__(self) -> None:

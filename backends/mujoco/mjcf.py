@@ -35,6 +35,7 @@ from dataclasses import dataclass, field  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
+from neuronav.articulated import FOLLOW_SIZE_PX  # noqa: E402
 from neuronav.body import BodySpec, Camera, Segment, quat_to_matrix  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
 from neuronav.world import World  # noqa: E402
@@ -50,7 +51,6 @@ BODY_CONTYPE, BODY_CONAFFINITY = 1, 0
 WORLD_CONTYPE, WORLD_CONAFFINITY = 1, 1
 BODY_GROUP = 1  # world geoms stay in group 0, so rays and renders can tell them apart
 SITE_GROUP = 4  # hidden in renders (MuJoCo shows groups 0-2 by default)
-FOLLOW_SIZE_PX = (640, 480)
 
 # Cube-map faces of a spherical camera: the rotation of each face camera in the mount camera's frame.
 # Cameras look along their -z, so e.g. "left" turns -z onto -x (a +90° turn about +y).
@@ -232,7 +232,7 @@ def _visual(spec: mujoco.MjSpec, body: BodySpec) -> None:
     spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
                      rgb1=(0.55, 0.72, 0.95), rgb2=(0.95, 0.97, 1.0), width=256, height=256)
     spec.add_texture(name="sand", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                     rgb1=(0.86, 0.76, 0.56), rgb2=(0.78, 0.68, 0.48), width=256, height=256)
+                     rgb1=(0.86, 0.76, 0.56), rgb2=(0.66, 0.57, 0.40), width=256, height=256)
     ground = spec.add_material(name="ground", texrepeat=(1.0, 1.0), texuniform=True)
     ground.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "sand"
     spec.add_material(name="wall", rgba=(0.62, 0.55, 0.47, 1.0))

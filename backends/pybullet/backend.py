@@ -43,8 +43,15 @@ Design
   contact geom (a contact point within 1 mm) into the surface along minus the mean contact normal,
   at the geom's centre, every PyBullet step.
 - ``reset`` puts the root ``spawn_height_m`` above the terrain under it; if a geom would then start
-  inside the terrain (rough ground), the body is lifted just clear of it (said once in
-  :attr:`warnings`), because a PyBullet heightfield is a surface that pushes a sunken geom down.
+  inside the terrain (rough ground), the body is lifted just clear of it (the shared rule of
+  :class:`~neuronav.articulated.ArticulatedBackend`; said once in :attr:`notes`), because a PyBullet
+  heightfield is a surface that pushes a sunken geom down. Here the overlap is measured from the
+  geoms' extents against :meth:`Ground.height_at`.
+- Speed: the control law runs in Python at every PyBullet step, so that step does one batched joint
+  read (``getJointStates``), one batched torque command (``setJointMotorControlArray``) and numpy on
+  preallocated arrays; contact points are only queried when ``contact_force`` is read or adhesion is on.
+- The floor is a checker (0.5 m squares, one texture over the whole ground) so that motion shows in
+  videos, as on MuJoCo.
 - What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in
   :attr:`warnings`, as are the notes above and the reason of a divergence.
 - Cameras: TinyRenderer (software) in DIRECT mode. A planar camera uses the spec's vertical field
@@ -52,7 +59,10 @@ Design
   spherical camera is an equirectangular image (columns: azimuth from -fov_h/2 on the left to
   +fov_h/2 on the right, rows: elevation from +fov_v/2 at the top to -fov_v/2 at the bottom, the
   centre looking along the camera's -z) stitched from the faces of a cube map rendered at the
-  camera (nearest-neighbour lookup).
+  camera (nearest-neighbour lookup). ``"follow"`` renders :func:`neuronav.articulated.follow_view`.
+
+Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
+framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to PyBullet.
 """
 
 from __future__ import annotations
@@ -61,16 +71,15 @@ import math
 import os
 import sys
 import tempfile
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from backends.pybullet.urdf import body_to_urdf, find_geom
-from neuronav.backend import BackendBase, Capabilities, adhesion_port, start_pose
+from neuronav.articulated import ArticulatedBackend, FollowView
+from neuronav.backend import quat_product
 from neuronav.body import BodySpec, Camera, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
-from neuronav.ports import MotorSpec, SensorSpec
-from neuronav.video import follow_axes
 from neuronav.world import World, WorldObject
 
 
@@ -110,18 +119,14 @@ TOUCH_DISTANCE_M = 1e-3  # a contact point this close (or penetrating) counts as
 # millimetres, as on MuJoCo; without it every pad lets go at once when the legs change over.
 PAD_STIFFNESS_N_M = 1.2e4
 PAD_DAMPING_N_S_M = 500.0
-FOLLOW_SIZE_PX = (640, 480)
 NEAR_M, FAR_M = 0.005, 200.0
 EYE_NUDGE_M = np.array([3.1e-7, 1.7e-7, 0.0])
 GROUND_RGBA = (0.76, 0.68, 0.52, 1.0)
+# The floor's checker: the same two sand colours as MuJoCo's, squares of CHECKER_M.
+CHECKER_RGB = ((219, 194, 143), (168, 145, 102))
+CHECKER_M = 0.5
 WALL_THICKNESS_M = 0.2
 CONE_SIDES = 32
-
-SENSOR_UNITS = {
-    "joint_pos": "rad", "joint_vel": "rad/s", "joint_torque": "N*m", "contact_force": "N",
-    "body_pos": "m", "body_quat": "", "body_linvel": "m/s", "body_angvel": "rad/s", "heading": "rad",
-    "velocity": "m/s", "position": "m", "odour_sites": "m", "wind_sites": "m",
-}
 
 # Cube-map faces in the camera frame (x right, y up, looking along -z): (forward, image up).
 _CUBE_FACES = (
@@ -193,7 +198,7 @@ class _SphericalLookup:
         self.faces_used = sorted(int(k) for k in np.unique(face))
 
 
-class PybulletBackend(BackendBase):
+class PybulletBackend(ArticulatedBackend):
     """One articulated body in PyBullet; implements the backend protocol (see DESIGN.md).
 
     Parameters
@@ -216,44 +221,29 @@ class PybulletBackend(BackendBase):
         PyBullet's own warnings, the reason of a divergence.
     """
 
+    engine = "pybullet"
+
     def __init__(self, timestep_s: float = 0.002, solver_iterations: int = 50, armature_as_inertia: bool = True,
                  substeps: int | None = None) -> None:
-        if not (np.isfinite(timestep_s) and timestep_s > 0):
-            raise ConfigError(f"pybullet backend: timestep_s must be a positive number of seconds, got {timestep_s}")
+        super().__init__(timestep_s)
         if not (isinstance(solver_iterations, int) and solver_iterations > 0):
             raise ConfigError(f"pybullet backend: solver_iterations must be a positive int, got {solver_iterations!r}")
         if substeps is not None and not (isinstance(substeps, int) and 1 <= substeps <= MAX_SUBSTEPS):
             raise ConfigError(f"pybullet backend: substeps must be None (automatic) or an int in 1..{MAX_SUBSTEPS}, "
                               f"got {substeps!r}")
-        self._dt = float(timestep_s)
         self._requested_substeps = substeps
         self._substeps = substeps or 1
         self._iterations = solver_iterations
         self._armature_as_inertia = bool(armature_as_inertia)
         self._client: int | None = None
         self._tmpdir: tempfile.TemporaryDirectory | None = None
-        self._body: BodySpec | None = None
-        self._world: World | None = None
         self._inner_steps = 0
         self._pending: list[tuple[int, np.ndarray, np.ndarray]] = []
-        self.warnings: list[str] = []
-        # What the backend chose on its own (substeps, armature handling): information, not a problem.
-        self.notes: list[str] = []
-        self._capabilities = self._placeholder_capabilities()
 
     # -- protocol: set-up --------------------------------------------------------------------------
     @property
-    def capabilities(self) -> Capabilities:
-        """Sensors and motors with their real shapes after ``load``; (1,) placeholders before."""
-        return self._capabilities
-
-    @property
-    def timestep(self) -> float:
-        return self._dt
-
-    @property
     def time(self) -> float:
-        return self._inner_steps / self._substeps * self._dt
+        return self._inner_steps / self._substeps * self._timestep_s
 
     @property
     def substeps(self) -> int:
@@ -266,20 +256,17 @@ class PybulletBackend(BackendBase):
         return self._client
 
     def load(self, world: World, bodies: Sequence[BodySpec]) -> None:
-        """Build ``world`` with exactly one :class:`BodySpec`, then ``reset()``.
+        """Build ``world`` with exactly one :class:`BodySpec`, ``reset()``, then choose the substeps.
 
         Raises
         ------
         ConfigError
             When ``bodies`` is not exactly one BodySpec, or the spec cannot be expressed.
         """
-        if not isinstance(world, World):
-            raise ConfigError(f"pybullet backend: world must be a neuronav World, got {type(world).__name__}")
-        bodies = list(bodies)
-        if len(bodies) != 1 or not isinstance(bodies[0], BodySpec):
-            raise ConfigError(f"the pybullet backend simulates exactly one BodySpec, got "
-                              f"{[type(b).__name__ for b in bodies]}")
-        body = bodies[0]
+        super().load(world, bodies)
+        self._choose_substeps()
+
+    def _load_engine(self, world: World, body: BodySpec) -> None:
         # Everything that can reject the input comes before any state changes.
         for obj in world.objects:
             _check_object(obj)
@@ -292,13 +279,12 @@ class PybulletBackend(BackendBase):
                 raise ConfigError(f"camera {camera.name!r}: a planar camera needs 0 < vertical fov < π, "
                                   f"got {camera.fov_rad[1]}")
         spherical = {c.name: _SphericalLookup(c) for c in body.cameras if c.projection == "spherical"}
-        self._body, self._world, self._urdf, self._spherical = body, world, urdf, spherical
+        self.body, self.world, self._urdf, self._spherical = body, world, urdf, spherical
         if self._tmpdir is None:
             self._tmpdir = tempfile.TemporaryDirectory(prefix="neuronav_pybullet_")
         self._urdf_path = os.path.join(self._tmpdir.name, "body.urdf")
         with open(self._urdf_path, "w") as handle:
             handle.write(self._urdf.text)
-        self._heights = world.ground.heights_m()
         if self._client is None:
             self._client = pb.connect(pb.DIRECT)
             if self._client < 0:
@@ -316,78 +302,32 @@ class PybulletBackend(BackendBase):
         self._kd = np.array([j.kd for j in self._joints])
         self._max_torque = np.array([j.max_torque_nm for j in self._joints])
         self._contact_sites = body.sites_of_kind("contact")
-        self._capabilities = self._make_capabilities(body)
+        self._adhesive = [site.adhesive for site in self._contact_sites]
         self._substeps = self._requested_substeps or 1
-        self.reset()
-        self._choose_substeps()
 
-    def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
-              pitch_rad: float = 0.0, spin_rad: float = 0.0) -> None:
-        """Rebuild the simulation and put the body at rest pose, root ``spawn_height_m`` above the ground.
-
-        Parameters
-        ----------
-        seed : int or None
-            Accepted for the protocol; the initial state does not depend on it (PyBullet is
-            deterministic), so the same calls give the same trajectory.
-        position_m : (x, y) or (x, y, z)
-            Where the root starts (m); with z, at that height instead of standing on the ground.
-        yaw_rad : float
-            Counter-clockwise rotation of the body about z from +x (heading = π/2 - yaw).
-        pitch_rad : float
-            Nose-up tilt about the body's lateral axis, before the yaw (π/2: head up, e.g. on a wall).
-        spin_rad : float
-            Turn about the body's own up axis, before the pitch (on a wall: its heading there).
-
-        Every pad's adhesion is switched fully on.
-        """
-        body = self._require()
-        position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, "pybullet", spin_rad)
-        self._seed = seed
+    def _reset_engine(self, position: np.ndarray, pose_quat: np.ndarray) -> None:
+        """Rebuild the simulation (no contact caches survive: same calls, same trajectory) and place the body."""
+        body = self.body
         self._build()
-        ground_z = float(self._height_at(position[0], position[1])) + body.spawn_height_m
-        frame_pos = np.array([position[0], position[1], position[2] if z_given else ground_z])
-        frame_rot = quat_to_matrix(pose_quat)
         cid = self._client
         for index, joint in zip(self._joint_index, self._joints):
             pb.resetJointState(self._robot, index, joint.rest_rad, 0.0, physicsClientId=cid)
-        self._place_base(frame_pos, frame_rot)
-        self._adhesion_scale = np.ones(len(self._contact_sites))
-        # A PyBullet heightfield is a surface: a geom that starts under it is pushed further down, not
-        # out. Lift the body if any part would start inside the terrain (rough ground, low spawn height).
-        sink = 0.0 if z_given else self._terrain_overlap_m()
-        if sink > 1e-4:  # touching is fine; overlapping by more than 0.1 mm is not
-            frame_pos[2] += sink + 1e-3
-            self._place_base(frame_pos, frame_rot)
-            note = "reset lifted the body above spawn_height_m so that no part starts inside the terrain"
-            if not any(w.startswith(note) for w in self.notes):  # once, not at every reset
-                self.notes.append(f"{note} (first at {position.tolist()}, by {sink + 1e-3:.4f} m)")
+        self._frame_pos, self._frame_rot = np.array(position, float), quat_to_matrix(pose_quat)
+        self._place_base(self._frame_pos, self._frame_rot)
         pb.resetBaseVelocity(self._robot, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
         self._targets = body.rest_pose_rad().astype(float)
         self._torque = np.zeros(len(self._joints))
         self._pending = []
         self._inner_steps = 0
 
-    # -- protocol: running -------------------------------------------------------------------------
-    def write(self, commands: dict[str, np.ndarray]) -> None:
-        """Set ``joint_targets`` (rad), shape (1, J) or (J,), held until overwritten; ``adhesion`` (1, C),
-        each contact site's fraction of the world's ``adhesion_n``."""
-        self._require()
-        fixed = dict(commands)
-        joints = len(self._joints)
-        if "joint_targets" in fixed:
-            value = np.asarray(fixed["joint_targets"], dtype=float)
-            if value.shape == (joints,):
-                fixed["joint_targets"] = value[None, :]
-        checked = self._check_write(fixed, batch=1)
-        if "adhesion" in checked:
-            self._adhesion_scale = self._adhesion_fractions(checked["adhesion"])
-        if "joint_targets" in checked:
-            targets = checked["joint_targets"][0]
-            if not np.isfinite(targets).all():
-                raise PortError("pybullet backend: joint_targets must be finite (rad)")
-            self._targets = targets.copy()
+    def _raise_root(self, dz_m: float) -> None:
+        self._frame_pos[2] += dz_m
+        self._place_base(self._frame_pos, self._frame_rot)
 
+    def _set_joint_targets(self, targets: np.ndarray) -> None:
+        self._targets = targets
+
+    # -- protocol: running -------------------------------------------------------------------------
     def step(self, n: int = 1) -> None:
         """Advance ``n`` timesteps (``n * substeps`` PyBullet steps) with position control, adhesion and
         the forces given to :meth:`apply_force` since the last call, all applied at every PyBullet step.
@@ -398,26 +338,21 @@ class PybulletBackend(BackendBase):
             When the state stops being finite or a velocity reaches PyBullet's clamp.
         """
         self._require()
-        if not isinstance(n, int | np.integer) or n < 0:
-            raise ConfigError(f"pybullet step: n must be a non-negative int, got {n!r}")
-        cid, robot = self._client, self._robot
+        n = self._check_steps(n)
+        cid, robot, joints = self._client, self._robot, self._joint_index
         control = bool(self._joints)
-        adhesion = self._world.adhesion_n
-        for _ in range(int(n) * self._substeps):
+        adhesion = self.world.adhesion_n
+        kp, kd, limit, targets = self._kp, self._kd, self._max_torque, self._targets
+        torque, TORQUE_CONTROL = self._torque, pb.TORQUE_CONTROL  # noqa: N806 - a local alias of the constant
+        for _ in range(n * self._substeps):
             if control:
-                states = pb.getJointStates(robot, self._joint_index, physicsClientId=cid)
-                q = np.array([s[0] for s in states])
-                qd = np.array([s[1] for s in states])
-                if not (np.isfinite(q).all() and np.isfinite(qd).all()):
-                    self._diverged("a joint angle or velocity is not finite")
-                if np.abs(qd).max() >= DIVERGED_VELOCITY:
-                    worst = int(np.argmax(np.abs(qd)))
-                    self._diverged(f"joint {self._joints[worst].name!r} reached PyBullet's velocity clamp "
-                                   f"({qd[worst]:.1f} rad/s)")
-                self._torque = np.clip(self._kp * (self._targets - q) - self._kd * qd, -self._max_torque,
-                                       self._max_torque)
-                pb.setJointMotorControlArray(robot, self._joint_index, pb.TORQUE_CONTROL,
-                                             forces=self._torque.tolist(), physicsClientId=cid)
+                q, qd, _, _ = zip(*pb.getJointStates(robot, joints, physicsClientId=cid))
+                q, qd = np.array(q), np.array(qd)
+                fastest = np.abs(qd).max()
+                if not (fastest < DIVERGED_VELOCITY and np.isfinite(q).all()):  # NaN fails the comparison too
+                    self._joint_diverged(q, qd)
+                torque = np.clip(kp * (targets - q) - kd * qd, -limit, limit)
+                pb.setJointMotorControlArray(robot, joints, TORQUE_CONTROL, forces=torque, physicsClientId=cid)
             if self._pending:
                 frames = self._frames(sorted({link for link, _, _ in self._pending}))
                 for link, local, force in self._pending:
@@ -428,80 +363,22 @@ class PybulletBackend(BackendBase):
                 self._apply_adhesion(adhesion)
             pb.stepSimulation(physicsClientId=cid)
             self._inner_steps += 1
+        if control and n:
+            self._torque = torque
         self._pending = []
         self._check_base()
 
-    def read(self, names: Iterable[str]) -> dict[str, np.ndarray]:
-        """Sensor values, each with a leading batch dimension of 1; only the names asked are computed."""
-        self._require()
-        names = self._check_read(names)
-        out: dict[str, np.ndarray] = {}
-        cache: dict[str, object] = {}
+    def _joint_diverged(self, q: np.ndarray, qd: np.ndarray) -> None:
+        if not (np.isfinite(q).all() and np.isfinite(qd).all()):
+            self._diverged("a joint angle or velocity is not finite")
+        worst = int(np.argmax(np.abs(qd)))
+        self._diverged(f"joint {self._joints[worst].name!r} reached PyBullet's velocity clamp ({qd[worst]:.1f} rad/s)")
 
-        def base():
-            if "base" not in cache:
-                cache["base"] = self._base_state()
-            return cache["base"]
+    def _queue_force(self, segment: str, point_m: np.ndarray, force_n: np.ndarray) -> None:
+        self._pending.append((self._link_index[self._urdf.segment_link[segment]], point_m, force_n))
 
-        def joints():
-            if "joints" not in cache:
-                states = pb.getJointStates(self._robot, self._joint_index, physicsClientId=self._client)
-                cache["joints"] = (np.array([s[0] for s in states]), np.array([s[1] for s in states]))
-            return cache["joints"]
-
-        for name in names:
-            if name == "joint_pos":
-                value = joints()[0]
-            elif name == "joint_vel":
-                value = joints()[1]
-            elif name == "joint_torque":
-                value = self._torque.copy()
-            elif name == "contact_force":
-                value = self._contact_forces()
-            elif name == "body_pos":
-                value = base()[0]
-            elif name == "body_quat":
-                value = base()[1]
-            elif name == "body_linvel":
-                value = base()[2]
-            elif name == "body_angvel":
-                value = base()[3]
-            elif name == "heading":
-                forward = base()[4][:, 0]
-                value = np.array([math.atan2(forward[0], forward[1])])
-            elif name == "velocity":
-                value = base()[2][:2].copy()
-            elif name == "position":
-                value = base()[0][:2].copy()
-            elif name in ("odour_sites", "wind_sites"):
-                value = self._site_positions(self._body.sites_of_kind(name.split("_")[0]))
-            else:  # pragma: no cover - _check_read guards this
-                raise PortError(f"pybullet backend has no sensor {name!r}")
-            out[name] = np.asarray(value, float)[None, ...]
-        return out
-
-    def apply_force(self, body: int, site: str, force_n) -> None:
-        """Apply a world-frame force (N, shape (3,)) at ``site`` during every physics step of the next ``step()``."""
-        spec = self._require()
-        if body != 0:
-            raise ConfigError(f"pybullet apply_force: body {body!r} out of range; this backend has one body (0)")
-        sites = {s.name: s for s in spec.sites}
-        if site not in sites:
-            raise ConfigError(f"pybullet apply_force: body {spec.name!r} has no site {site!r}; "
-                              f"sites: {', '.join(sorted(sites)) or 'none'}")
-        force = np.asarray(force_n, float).reshape(-1)
-        if force.shape != (3,) or not np.isfinite(force).all():
-            raise ConfigError(f"pybullet apply_force: force_n must be 3 finite numbers (N, world frame), "
-                              f"got {force_n!r}")
-        target = sites[site]
-        self._pending.append((self._link_index[self._urdf.segment_link[target.segment]],
-                              np.asarray(target.pos_m, float), force))
-
-    def render(self, camera: str) -> np.ndarray:
-        """RGB image (H, W, 3) uint8 from a body camera, or ``"follow"`` (640x480, behind and above the root)."""
-        body = self._require()
-        if camera == "follow":
-            return self._render_follow()
+    def _render_camera(self, camera: str) -> np.ndarray:
+        body = self.body
         cameras = {c.name: c for c in body.cameras}
         if camera not in cameras:
             raise PortError(f"pybullet render: no camera {camera!r}; cameras: "
@@ -548,7 +425,7 @@ class PybulletBackend(BackendBase):
             axis = frames[index][1] @ np.asarray(info[13], float)
             axes[joint.name] = axis / np.linalg.norm(axis)
         sites = list(body.sites)
-        positions = self._site_positions(sites)
+        positions = self._positions_of(sites)
         return {"segment_mass_kg": masses, "joint_range_rad": ranges, "joint_axis_world": axes,
                 "site_pos_m": {site.name: positions[i] for i, site in enumerate(sites)}}
 
@@ -572,7 +449,7 @@ class PybulletBackend(BackendBase):
         if self._tmpdir is not None:
             self._tmpdir.cleanup()
             self._tmpdir = None
-        self._body = None
+        self.body = None
 
     def __del__(self) -> None:
         try:
@@ -586,7 +463,7 @@ class PybulletBackend(BackendBase):
         cid = self._client
         pb.resetSimulation(physicsClientId=cid)
         pb.setGravity(0.0, 0.0, GRAVITY_M_S2, physicsClientId=cid)
-        inner = self._dt / self._substeps
+        inner = self._timestep_s / self._substeps
         pb.setTimeStep(inner, physicsClientId=cid)
         pb.setPhysicsEngineParameter(fixedTimeStep=inner, numSubSteps=0, numSolverIterations=self._iterations,
                                      deterministicOverlappingPairs=1, physicsClientId=cid)
@@ -596,7 +473,7 @@ class PybulletBackend(BackendBase):
             self._robot = pb.loadURDF(self._urdf_path, useFixedBase=self._urdf.fixed_base, flags=flags,
                                       physicsClientId=cid)
         self._index_links()
-        if self._world.adhesion_n > 0:
+        if self.world.adhesion_n > 0:
             pads = {link for site, (link, _) in zip(self._contact_sites, self._contact_links) if site.adhesive}
             for link in sorted(pads):
                 pb.changeDynamics(self._robot, link, contactStiffness=PAD_STIFFNESS_N_M,
@@ -608,7 +485,7 @@ class PybulletBackend(BackendBase):
             pb.setJointMotorControlArray(self._robot, movable, pb.VELOCITY_CONTROL, forces=[0.0] * len(movable),
                                          physicsClientId=cid)
         self._build_ground()
-        for obj in self._world.objects:
+        for obj in self.world.objects:
             self._build_object(obj)
 
     def _index_links(self) -> None:
@@ -623,13 +500,15 @@ class PybulletBackend(BackendBase):
         dynamics = pb.getDynamicsInfo(robot, -1, physicsClientId=cid)
         self._base_inertial_pos = np.array(dynamics[3], float)
         self._base_inertial_rot = _rot(dynamics[4])
+        x, y, z, w = dynamics[4]
+        self._base_inertial_conj = np.array([w, -x, -y, -z]) / np.linalg.norm(dynamics[4])
         # Contact sites: (link, point in the link frame) of the geom each one reports.
         self._contact_links = []
         for site in self._contact_sites:
             if site.geom:
-                segment, index = find_geom(self._body, site.segment, site.geom)
+                segment, index = find_geom(self.body, site.segment, site.geom)
                 link = self._urdf.link(self._urdf.geom_link[(segment, index)])
-                geom = self._body.segment(segment).geoms[index]
+                geom = self.body.segment(segment).geoms[index]
                 point = quat_to_matrix(link.quat).T @ (np.asarray(geom.pos_m) - np.asarray(link.pos_m))
             else:
                 link = self._urdf.link(self._urdf.segment_link[site.segment])
@@ -638,16 +517,17 @@ class PybulletBackend(BackendBase):
 
     def _build_ground(self) -> None:
         cid = self._client
-        ground = self._world.ground
+        ground = self.world.ground
         half = ground.size_m / 2.0
         plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
-        if ground.kind == "uneven" and self._heights.max() > self._heights.min():
+        heights = ground.heights_m()
+        if heights.max() > heights.min():
             spacing = ground.size_m / (ground.cells - 1)
             field = pb.createCollisionShape(
-                pb.GEOM_HEIGHTFIELD, meshScale=[spacing, spacing, 1.0], heightfieldData=self._heights.ravel().tolist(),
+                pb.GEOM_HEIGHTFIELD, meshScale=[spacing, spacing, 1.0], heightfieldData=heights.ravel().tolist(),
                 numHeightfieldRows=ground.cells, numHeightfieldColumns=ground.cells, physicsClientId=cid)
             # PyBullet centres the field at the midpoint of its extreme heights: lift it back.
-            lift = (self._heights.max() + self._heights.min()) / 2.0
+            lift = (heights.max() + heights.min()) / 2.0
             terrain = pb.createMultiBody(0.0, field, -1, [0.0, 0.0, lift], physicsClientId=cid)
             pb.changeVisualShape(terrain, -1, rgbaColor=list(GROUND_RGBA), textureUniqueId=-1, physicsClientId=cid)
             self._set_friction(terrain)
@@ -655,9 +535,10 @@ class PybulletBackend(BackendBase):
         else:
             top = 0.0
         visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.005],
-                                      visualFramePosition=[0.0, 0.0, top - 0.005], rgbaColor=list(GROUND_RGBA),
+                                      visualFramePosition=[0.0, 0.0, top - 0.005], rgbaColor=[1.0, 1.0, 1.0, 1.0],
                                       physicsClientId=cid)
         floor = pb.createMultiBody(0.0, plane, visual, [0.0, 0.0, 0.0], physicsClientId=cid)
+        pb.changeVisualShape(floor, -1, textureUniqueId=self._checker_texture(ground.size_m), physicsClientId=cid)
         self._set_friction(floor)
         if ground.kind == "wall":
             extents = [WALL_THICKNESS_M / 2.0, half, ground.wall_height_m / 2.0]
@@ -667,6 +548,18 @@ class PybulletBackend(BackendBase):
             wall = pb.createMultiBody(0.0, shape, look, [ground.wall_distance_m + WALL_THICKNESS_M / 2.0, 0.0,
                                                          ground.wall_height_m / 2.0], physicsClientId=cid)
             self._set_friction(wall)
+
+    def _checker_texture(self, size_m: float) -> int:
+        """A checker of ``CHECKER_M`` squares over ``size_m`` (a binary PPM in the temporary folder)."""
+        squares = max(1, int(round(size_m / CHECKER_M)))
+        path = os.path.join(self._tmpdir.name, f"checker_{squares}.ppm")
+        if not os.path.exists(path):
+            pixels = 8  # per square: TinyRenderer samples the nearest texel
+            parity = (np.add.outer(np.arange(squares * pixels) // pixels, np.arange(squares * pixels) // pixels)) % 2
+            image = np.where(parity[..., None] == 0, CHECKER_RGB[0], CHECKER_RGB[1]).astype(np.uint8)
+            with open(path, "wb") as handle:
+                handle.write(f"P6 {image.shape[1]} {image.shape[0]} 255\n".encode() + image.tobytes())
+        return pb.loadTexture(path, physicsClientId=self._client)
 
     def _build_object(self, obj: WorldObject) -> None:
         cid = self._client
@@ -700,7 +593,7 @@ class PybulletBackend(BackendBase):
         self._set_friction(handle)
 
     def _set_friction(self, handle: int) -> None:
-        pb.changeDynamics(handle, -1, lateralFriction=self._world.ground.friction, restitution=0.0,
+        pb.changeDynamics(handle, -1, lateralFriction=self.world.ground.friction, restitution=0.0,
                           physicsClientId=self._client)
 
     def _stability_margin(self, step_s: float) -> tuple[float, list[str]]:
@@ -741,26 +634,27 @@ class PybulletBackend(BackendBase):
         """Pick PyBullet steps per timestep so that explicit joint control stays stable (see the module doc)."""
         if not self._joints:
             return
-        margin, involved = self._stability_margin(self._dt)
+        dt = self._timestep_s
+        margin, involved = self._stability_margin(dt)
         wanted = max(1, math.ceil(margin / SAFE_MARGIN))
         if self._requested_substeps is not None:
             inner_margin = margin / self._requested_substeps  # margin scales about linearly with the step
             if inner_margin > SAFE_MARGIN:
                 self.warnings.append(
                     f"explicit joint control is near or past its stability limit ({inner_margin:.2f}, 1 = unstable) "
-                    f"with {self._requested_substeps} substep(s) of {self._dt / self._requested_substeps:g} s, in the "
+                    f"with {self._requested_substeps} substep(s) of {dt / self._requested_substeps:g} s, in the "
                     f"mode of {', '.join(involved)}; automatic substeps would use {min(wanted, MAX_SUBSTEPS)}")
             return
         if wanted > MAX_SUBSTEPS:
             self.warnings.append(
-                f"explicit joint control would need {wanted} substeps per {self._dt:g} s step to be stable "
+                f"explicit joint control would need {wanted} substeps per {dt:g} s step to be stable "
                 f"(margin {margin:.1f} in the mode of {', '.join(involved)}); using {MAX_SUBSTEPS}: lower kd/kp, "
                 "add armature, or lower timestep_s")
             wanted = MAX_SUBSTEPS
         elif wanted > 1:
             self.notes.append(
-                f"running {wanted} PyBullet steps of {self._dt / wanted:g} s per {self._dt:g} s step: explicit joint "
-                f"control would be unstable at {self._dt:g} s (margin {margin:.2f}, 1 = unstable; mode of "
+                f"running {wanted} PyBullet steps of {dt / wanted:g} s per {dt:g} s step: explicit joint "
+                f"control would be unstable at {dt:g} s (margin {margin:.2f}, 1 = unstable; mode of "
                 f"{', '.join(involved)})")
         if wanted > 1:
             self._substeps = wanted
@@ -773,20 +667,7 @@ class PybulletBackend(BackendBase):
         pb.resetBasePositionAndOrientation(self._robot, com_pos.tolist(), _matrix_to_xyzw(com_rot),
                                            physicsClientId=self._client)
 
-    def _height_at(self, x_m, y_m) -> np.ndarray:
-        """Terrain height (m), vectorised; the same bilinear interpolation as :meth:`Ground.height_at`."""
-        ground = self._world.ground
-        half = ground.size_m / 2.0
-        scale = (ground.cells - 1) / ground.size_m
-        u = np.clip((np.asarray(x_m, float) + half) * scale, 0, ground.cells - 1.000001)
-        v = np.clip((np.asarray(y_m, float) + half) * scale, 0, ground.cells - 1.000001)
-        j, i = u.astype(int), v.astype(int)
-        fu, fv = u - j, v - i
-        h = self._heights
-        return ((1 - fv) * ((1 - fu) * h[i, j] + fu * h[i, j + 1])
-                + fv * ((1 - fu) * h[i + 1, j] + fu * h[i + 1, j + 1]))
-
-    def _terrain_overlap_m(self) -> float:
+    def _penetration_m(self) -> float:
         """How far the lowest geom dips below the terrain under its footprint (<= 0: clear)."""
         link_of = {name: index for name, index in self._link_index.items()}
         frames = self._frames(sorted(set(link_of.values())))
@@ -794,7 +675,7 @@ class PybulletBackend(BackendBase):
         for link in self._urdf.links:
             pos, rot = frames[link_of[link.name]]
             to_link = quat_to_matrix(link.quat).T
-            segment = self._body.segment(link.segment)
+            segment = self.body.segment(link.segment)
             for index in link.geoms:
                 geom = segment.geoms[index]
                 centre = pos + rot @ (to_link @ (np.asarray(geom.pos_m) - np.asarray(link.pos_m)))
@@ -802,7 +683,7 @@ class PybulletBackend(BackendBase):
                 reach = _geom_reach(geom, axes)  # half-extent of the geom along world x, y, z
                 xs = np.linspace(centre[0] - reach[0], centre[0] + reach[0], 3)
                 ys = np.linspace(centre[1] - reach[1], centre[1] + reach[1], 3)
-                terrain = self._height_at(*np.meshgrid(xs, ys)).max()
+                terrain = self.world.ground.height_at(*np.meshgrid(xs, ys)).max()
                 worst = max(worst, terrain - (centre[2] - reach[2]))
         return float(worst)
 
@@ -822,20 +703,28 @@ class PybulletBackend(BackendBase):
                 frames[k] = (np.asarray(state[4], float), _rot(state[5]))
         return frames
 
-    def _base_state(self):
-        """(frame position, quat wxyz, frame linear velocity, angular velocity, rotation) of the root."""
+    def _root_pose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        com_pos, com_orn = pb.getBasePositionAndOrientation(self._robot, physicsClientId=self._client)
+        x, y, z, w = com_orn
+        quat = quat_product(np.array([w, x, y, z]), self._base_inertial_conj)
+        rot = quat_to_matrix(quat)
+        return np.asarray(com_pos) - rot @ self._base_inertial_pos, quat, rot
+
+    def _root_velocity(self) -> tuple[np.ndarray, np.ndarray]:
         cid, robot = self._client, self._robot
-        com_pos, com_orn = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
+        _, com_orn = pb.getBasePositionAndOrientation(robot, physicsClientId=cid)
         linvel, angvel = pb.getBaseVelocity(robot, physicsClientId=cid)
-        rot = _rot(com_orn) @ self._base_inertial_rot.T
-        offset = rot @ self._base_inertial_pos
-        pos = np.asarray(com_pos) - offset
+        offset = _rot(com_orn) @ self._base_inertial_rot.T @ self._base_inertial_pos
         angvel = np.asarray(angvel, float)
         # The COM moves at linvel; the root frame's origin sits at -offset from it.
-        velocity = np.asarray(linvel, float) + np.cross(angvel, -offset)
-        x, y, z, w = _matrix_to_xyzw(rot)
-        quat = np.array([w, x, y, z])
-        return pos, quat * (1.0 if w >= 0 else -1.0), velocity, angvel, rot
+        return np.asarray(linvel, float) + np.cross(angvel, -offset), angvel
+
+    def _joint_state(self) -> tuple[np.ndarray, np.ndarray]:
+        q, qd, _, _ = zip(*pb.getJointStates(self._robot, self._joint_index, physicsClientId=self._client))
+        return np.array(q), np.array(qd)
+
+    def _joint_torque(self) -> np.ndarray:
+        return self._torque
 
     def _contact_forces(self) -> np.ndarray:
         """(C, 3) total contact force on each contact site's geom, world frame (N)."""
@@ -846,7 +735,10 @@ class PybulletBackend(BackendBase):
                                 + point[12] * np.asarray(point[13]))
         return forces
 
-    def _site_positions(self, sites) -> np.ndarray:
+    def _site_positions(self, kind: str) -> np.ndarray:
+        return self._positions_of(self.body.sites_of_kind(kind))
+
+    def _positions_of(self, sites) -> np.ndarray:
         if not sites:
             return np.zeros((0, 3))
         links = [self._link_index[self._urdf.segment_link[s.segment]] for s in sites]
@@ -904,55 +796,15 @@ class PybulletBackend(BackendBase):
                                             flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=self._client)
         return np.asarray(rgb, np.uint8).reshape(int(height), int(width), 4)[:, :, :3].copy()
 
-    def _render_follow(self) -> np.ndarray:
-        pos, _, _, _, rot = self._base_state()
-        forward, body_up = follow_axes(rot)
-        distance = self._follow_distance_m
-        eye = pos - distance * forward + 0.6 * distance * body_up
-        look = pos - eye
-        look /= np.linalg.norm(look)
-        up = np.cross(np.cross(look, body_up), look)
-        width, height = FOLLOW_SIZE_PX
-        return self._render_view(eye, look, up / np.linalg.norm(up), width, height, np.radians(50.0))
-
-    @property
-    def _follow_distance_m(self) -> float:
-        """Camera distance that frames the whole body: about three body radii."""
-        reach = 0.0
-        for segment in self._body.segments:
-            for geom in segment.geoms:
-                reach = max(reach, float(np.linalg.norm(geom.pos_m)) + max(geom.size_m))
-        reach = max(reach, max(float(np.linalg.norm(s.pos_m)) for s in self._body.segments))
-        return max(0.5, 3.0 * reach)
-
-    # -- capabilities ------------------------------------------------------------------------------
-    @staticmethod
-    def _placeholder_capabilities() -> Capabilities:
-        sensors = tuple(SensorSpec(name, (1,), units) for name, units in SENSOR_UNITS.items())
-        return Capabilities(name="pybullet", sensors=sensors, motors=(MotorSpec("joint_targets", (1,), "rad"),),
-                            batched=False, can_render=True)
-
-    @staticmethod
-    def _make_capabilities(body: BodySpec) -> Capabilities:
-        joints = len(body.joints)
-        shapes = {
-            "joint_pos": (joints,), "joint_vel": (joints,), "joint_torque": (joints,),
-            "contact_force": (len(body.sites_of_kind("contact")), 3),
-            "body_pos": (3,), "body_quat": (4,), "body_linvel": (3,), "body_angvel": (3,), "heading": (1,),
-            "velocity": (2,), "position": (2,),
-            "odour_sites": (len(body.sites_of_kind("odour")), 3), "wind_sites": (len(body.sites_of_kind("wind")), 3),
-        }
-        # Ports must have positive sizes: a body without joints or sites of a kind has no such sensor.
-        sensors = tuple(SensorSpec(name, shape, SENSOR_UNITS[name]) for name, shape in shapes.items() if min(shape) > 0)
-        motors = (MotorSpec("joint_targets", (joints,), "rad"),) if joints else ()
-        if body.sites_of_kind("contact"):
-            motors += (adhesion_port(len(body.sites_of_kind("contact"))),)
-        return Capabilities(name="pybullet", sensors=sensors, motors=motors, batched=False, can_render=True)
+    def _render_follow(self, view: FollowView) -> np.ndarray:
+        width, height = view.size_px
+        return self._render_view(view.eye, (view.target - view.eye) / view.distance_m, view.up, width, height,
+                                 np.radians(view.fov_deg))
 
     def _require(self) -> BodySpec:
-        if self._body is None or self._client is None:
+        if self.body is None or self._client is None:
             raise SimulationError("pybullet backend: call load(world, [body_spec]) first (or it was closed)")
-        return self._body
+        return self.body
 
 
 def _geom_reach(geom, axes: np.ndarray) -> np.ndarray:

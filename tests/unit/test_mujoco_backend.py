@@ -11,6 +11,7 @@ mujoco = pytest.importorskip("mujoco")
 
 from backends.mujoco import MujocoBackend  # noqa: E402
 from backends.mujoco.mjcf import matrix_to_quat, to_xml  # noqa: E402
+from neuronav.articulated import rest_bounds  # noqa: E402
 from neuronav.backend import Backend  # noqa: E402
 from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
@@ -330,7 +331,9 @@ def test_step_equals_raw_mj_step_without_adhesion():
 
 def test_divergence_raises_simulation_error_and_reset_recovers():
     backend = loaded()
-    backend.write({"joint_targets": [np.nan, 0.0, 0.0, 0.0]})
+    with pytest.raises(PortError, match="finite"):  # the shared write check refuses it up front ...
+        backend.write({"joint_targets": [np.nan, 0.0, 0.0, 0.0]})
+    backend.data.ctrl[0] = np.nan  # ... so put it in the engine directly: MuJoCo's own check reports it
     with pytest.raises(SimulationError, match="BADCTRL"):
         backend.step(5)
     assert any("BADCTRL" in w for w in backend.warnings)
@@ -398,11 +401,16 @@ def test_panorama_and_follow_camera():
         follow = backend.render("follow")
         assert follow.shape == (480, 640, 3) and follow.dtype == np.uint8
         assert follow.std() > 5
-        # it tracks the root from behind: looks at the root, along the body's yaw
+        # it tracks the body from behind: looks at the centre of its rest-pose bounding sphere, along its yaw,
+        # 25° down, from where that sphere fills 1/1.25 of the 45° field of view (the shared rule)
         backend.reset(position_m=(1.0, 2.0), yaw_rad=1.0)
-        camera = backend._follow_camera(backend.data)
-        np.testing.assert_allclose(camera.lookat, backend.read(["body_pos"])["body_pos"][0])
-        assert camera.azimuth == pytest.approx(np.degrees(1.0)) and camera.elevation < 0
+        centre, radius = rest_bounds(backend.body)
+        pose = backend.read(["body_pos", "body_quat"])
+        camera = backend._follow_camera(backend.follow_view())
+        np.testing.assert_allclose(camera.lookat, pose["body_pos"][0] + quat_to_matrix(pose["body_quat"][0]) @ centre)
+        assert camera.azimuth == pytest.approx(np.degrees(1.0)) and camera.elevation == pytest.approx(-25.0)
+        assert camera.distance == pytest.approx(1.25 * radius / np.sin(np.radians(22.5)))
+        assert backend.model.vis.global_.fovy == pytest.approx(45.0)
         assert not np.array_equal(backend.render("follow"), follow)
 
 

@@ -10,7 +10,7 @@ pb = pytest.importorskip("pybullet")
 
 from backends.pybullet import PybulletBackend  # noqa: E402
 from backends.pybullet.urdf import body_to_urdf, subset_inertial  # noqa: E402
-from neuronav.backend import Backend  # noqa: E402
+from neuronav.backend import ARTICULATED_SENSORS, Backend  # noqa: E402
 from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
 from neuronav.world import Ground, PointAgents, World, WorldObject  # noqa: E402
@@ -142,7 +142,10 @@ def test_capsules_load_as_capsules(backend):
 def test_capabilities_placeholders_then_real_shapes_and_reads_match():
     with PybulletBackend() as backend:
         assert isinstance(backend, Backend)
-        assert all(s.shape == (1,) for s in backend.capabilities.sensors)
+        # before load, every sensor of the shared table, with its body-sized dimensions (J, C, O, W) at 1
+        placeholders = {s.name: s.shape for s in backend.capabilities.sensors}
+        assert placeholders == {name: tuple(1 if isinstance(n, str) else n for n in shape)
+                                for name, shape, _, _ in ARTICULATED_SENSORS}
         assert "joint_targets" in {m.name for m in backend.capabilities.motors}
         backend.load(World(), [small_body()])
         caps = backend.capabilities
