@@ -17,6 +17,7 @@ agent i of a batch sees exactly the numbers a single run with that agent's seed 
 from __future__ import annotations
 
 import functools
+import math
 import os
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -54,6 +55,7 @@ def _clip_ufunc():
 
 
 _clip = _clip_ufunc()
+_add_reduce = np.add.reduce
 # Gaussian noise below this many agents is re-laid per block as (step, column, agent): row slices
 # then cost the least per step; above it the (word, agent, sample) layout avoids that copy. Table
 # noise is always gathered straight into (step, column, agent).
@@ -108,15 +110,18 @@ class _Product:
     """
 
     def __init__(self, reads: list[tuple[bool, int, np.ndarray]], size: int, dtype: np.dtype,
-                 sparse: bool) -> None:
-        # reads: (from_snapshot, first state row, weights (size, span)) with the span's zero columns trimmed.
+                 sparse: bool, bias: float = 0.0) -> None:
+        # reads: (from_snapshot, first state row, weights (size, span)).
         self.size = size
+        self.dtype = dtype
         self.terms: list[tuple] = []  # (kind, from_snapshot, rows, weights, first slot, slots)
         slot = 0
         for from_snapshot, lo, weights in reads:
             span = weights.shape[1]
             nonzero = weights != 0
             per_row = int(nonzero.sum(axis=1).max())
+            if per_row == 0:
+                continue  # all weights zero: nothing to add
             if span == size and not np.any(nonzero & ~np.eye(size, dtype=bool)):
                 term = ("diagonal", np.diag(weights).astype(dtype)[:, None], 1)
             elif sparse:
@@ -135,6 +140,13 @@ class _Product:
             kind, data, slots = term
             self.terms.append((kind, from_snapshot, slice(lo, lo + span), data, slot, slots))
             slot += slots
+        # The bias is the last term when the terms are summed anyway (or alone): ((t0 + t1) + ...) + b,
+        # the same numbers as adding it afterwards, one call fewer.
+        self.bias = float(bias)
+        self.includes_bias = bool(self.bias) and slot != 1
+        if self.includes_bias and slot:
+            self.terms.append(("constant", False, slice(0, 0), self.bias, slot, 1))
+            slot += 1
         self.slots = slot
         # Summing three or more terms over axis 0 is a left-to-right loop only while each term has
         # two or more elements (numpy sums a lone vector pairwise): pad a one-cell population to two.
@@ -164,15 +176,17 @@ class _Product:
                 calls.append(functools.partial(np.multiply, data, source[rows], out=target[0]))
             elif kind == "dense":
                 calls.append(functools.partial(np.multiply, data, source[rows][:, None, :], out=target))
+            elif kind == "constant":
+                target[...] = data  # filled once: never written again
             elif kind == "gather":
                 index, values = data
                 calls.append(functools.partial(np.take, source, index, 0, target))
                 calls.append(functools.partial(np.multiply, target, values, out=target))
             else:
                 calls.append(functools.partial(_sparse_term, data, source[rows], target[0]))
-        self._calls = calls
+        self.calls = calls
         if not self.terms:
-            calls.append(functools.partial(out.fill, 0))
+            calls.append(functools.partial(out.fill, self.bias))
         elif self.slots == 2:
             calls.append(functools.partial(np.add, buffer[0, :size], buffer[1, :size], out=out))
         elif self.slots >= 3 and self.padded == size:
@@ -185,7 +199,7 @@ class _Product:
             calls.append(functools.partial(np.copyto, out, buffer[0, :size]))
 
     def __call__(self) -> None:
-        for call in self._calls:
+        for call in self.calls:
             call()
 
 
@@ -211,11 +225,16 @@ class _PopulationStep:
         self.noise_columns, self.clip = noise_columns, clip
 
     def bind(self, compiled: CompiledCircuit) -> None:
+        """Point the step's calls at the compiled circuit's (new) state arrays."""
         self.rates_view = compiled._state[self.cells]
         self.add_noise = compiled._add_noise
-        target = self._net_target(compiled)
-        self.product.bind(compiled._state, compiled._snapshot, target,
-                          self.cells if target is self.rates_view else None)
+        self.net = self._net_target(compiled)
+        self.product.bind(compiled._state, compiled._snapshot, self.net,
+                          self.cells if self.net is self.rates_view else None)
+        # The net input's calls, then the bias unless the product already added it.
+        self.calls = list(self.product.calls)
+        if self.bias and not self.product.includes_bias:
+            self.calls.append(functools.partial(np.add, self.net, self.bias, out=self.net))
 
     def _net_target(self, compiled: CompiledCircuit) -> np.ndarray:
         return self.rates_view  # rate and output populations are computed in place in the state
@@ -228,16 +247,17 @@ class _PopulationStep:
             _clip(rates, *self.clip, out=rates)
 
     def __call__(self, noise: np.ndarray | None) -> None:
-        self.product()
-        net = self.rates_view
-        if self.bias:
-            net += self.bias
-        self.activation(net, **self.params)  # in place: activations overwrite their input
-        self.finish(net, noise)
+        for call in self.calls:  # net input, bias and activation, all in the population's state rows
+            call()
+        self.finish(self.rates_view, noise)
 
 
 class _RateStep(_PopulationStep):
     """``rate`` and ``output``: r = f(W x + b), written straight into the population's state rows."""
+
+    def bind(self, compiled: CompiledCircuit) -> None:
+        super().bind(compiled)
+        self.calls.append(functools.partial(self.activation, self.net, **self.params))  # in place
 
 
 def check_leaky_step(name: str, tau_s: float, dt_s: float | None) -> None:
@@ -270,10 +290,9 @@ class _LeakyStep(_PopulationStep):
         return self.net
 
     def __call__(self, noise: np.ndarray | None) -> None:
-        self.product()
+        for call in self.calls:
+            call()
         net = self.net
-        if self.bias:
-            net += self.bias
         rates = leaky_euler_update(self.rates_view, self.activation(net, **self.params), self.leak_fraction)
         self.finish(rates, noise)
         self.rates_view[...] = rates
@@ -297,10 +316,9 @@ class _IntegratorStep(_PopulationStep):
         return self.net
 
     def __call__(self, noise: np.ndarray | None) -> None:
-        self.product()
+        for call in self.calls:
+            call()
         net, memory = self.net, self.memory
-        if self.bias:
-            net += self.bias
         if self.drive_clip is not None:
             _clip(net, *self.drive_clip, out=net)
         net *= self.gain
@@ -309,11 +327,12 @@ class _IntegratorStep(_PopulationStep):
             memory -= self.leak
         if self.memory_clip is not None:
             _clip(memory, *self.memory_clip, out=memory)
-        self.rates_of_memory()
+        np.copyto(self.rates_view, memory)
+        self.activation(self.rates_view, **self.params)
         self.finish(self.rates_view, noise)
 
     def rates_of_memory(self) -> None:
-        """The rates f(m), clipped, into the population's state rows (no noise)."""
+        """The rates f(m), clipped, into the population's state rows (no noise): at reset and set_memory."""
         np.copyto(self.rates_view, self.memory)
         self.activation(self.rates_view, **self.params)
         if self.clip is not None:
@@ -490,7 +509,7 @@ class CompiledCircuit:
             scale = -slope
             activation, params, bias = logistic_of_negated, {}, -slope * bias + offset
         reads = self._reads(now, pop.size, False, scale) + self._reads(prev, pop.size, True, scale)
-        product = _Product(reads, pop.size, self.dtype, self.sparse)
+        product = _Product(reads, pop.size, self.dtype, self.sparse, bias)
         common = (name, self.cells[name], product, bias, activation, params, self._noise_columns.get(name), pop.clip)
         if pop.kind == "leaky":
             return _LeakyStep(*common, leak_fraction=self.dt_s / pop.tau_s)
@@ -708,7 +727,8 @@ class CompiledCircuit:
                 if lowest >= low and highest <= high:
                     continue
             elif low == -np.inf and high == np.inf:
-                if np.isfinite(value.sum()) or np.isfinite(value).all():  # a sum overflows or is NaN
+                # The sum is finite when every value is (the second test: a sum of finite values overflowed).
+                if math.isfinite(_add_reduce(value, None)) or np.isfinite(value).all():
                     continue
             else:
                 lowest, highest = value.min(), value.max()  # NaN when any value is NaN
