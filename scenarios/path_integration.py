@@ -201,18 +201,20 @@ def outbound_routes(config: PathIntegrationConfig, seeds: list[int]) -> tuple[np
     rotation, acceleration : ndarray, shape (trials, outbound_steps)
     """
     steps = config.outbound_steps
-    low, high = sorted((config.min_acceleration, config.max_acceleration))
+    low, high = config.min_acceleration, config.max_acceleration
     keys = max(4, steps // 50)
     turns = np.zeros((len(seeds), steps))
-    key_values = np.zeros((len(seeds), keys))
-    for i, seed in enumerate(seeds):  # each trial's own stream; the filtering below is batched
+    acceleration = np.zeros((len(seeds), steps))
+    knots, times = np.linspace(0.0, 1.0, keys), np.linspace(0.0, 1.0, steps)
+    # Each trial from its own stream and its own spline (a spline through many trials at once solves
+    # them together, which LAPACK may round differently for another number of trials).
+    for i, seed in enumerate(seeds):
         rng = np.random.default_rng([seed, 1])
         turns[i] = rng.vonmises(0.0, config.kappa, steps)
-        key_values[i] = rng.uniform(low, high, keys)
-    rotation = lfilter([1.0], [1.0, -config.turn_smoothing], turns, axis=1)
+        acceleration[i] = CubicSpline(knots, rng.uniform(low, high, keys))(times)
+    np.clip(acceleration, low, high, out=acceleration)
+    rotation = lfilter([1.0], [1.0, -config.turn_smoothing], turns, axis=1)  # row by row
     rotation[:, 0] = 0.0
-    spline = CubicSpline(np.linspace(0.0, 1.0, keys), key_values, axis=1)
-    acceleration = np.clip(spline(np.linspace(0.0, 1.0, steps)), low, high)
     return rotation, acceleration
 
 
