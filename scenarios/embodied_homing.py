@@ -27,9 +27,10 @@ from bodies.desert_ant import desert_ant
 from bodies.gaits import make_gait
 from brains.cx import decode_home_vector, stone2017
 from neuronav import registry
-from neuronav.loop import AgentLoop, Clocks
+from neuronav.errors import ConfigError
+from neuronav.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.scenario import ScenarioResult
-from neuronav.video import CameraRecorder, write_video
+from neuronav.video import VideoRecorder
 from neuronav.world import Ground, PointAgents, World
 
 CYCLE_S = 0.64
@@ -87,17 +88,49 @@ class HomingBrain:
         return command
 
 
-# Video: one frame of the follow camera every this many control steps (0.128 s), played at 30 fps.
-VIDEO_EVERY = 16
-VIDEO_FPS = 30
+# Video: one frame of the follow camera every this many control steps (0.064 s), played in real time
+# (15.6 frames per second), streamed to the file.
+VIDEO_EVERY = 8
+# Physics bounds of the embodied protocol: every trial ends in bounded time.
+MIN_TIMESTEP_S = 1e-4
+MAX_PHYSICS_PER_CONTROL = 80
+MAX_PHYSICS_STEPS = 4_000_000
+
+
+def check_embodied(config, backend_name: str) -> None:
+    """The embodied protocol's cross-field rules on a physics backend (the kinematic one steps per control step).
+
+    ``embodied_timestep_s`` at least ``MIN_TIMESTEP_S`` and a whole fraction of the 8 ms control step (at
+    most ``MAX_PHYSICS_PER_CONTROL`` physics steps per control step); a trial of at most
+    ``outbound_s + homing_timeout_s`` needs at most ``MAX_PHYSICS_STEPS`` physics steps (at the default
+    2 ms: 8000 s, more than the settings' own maxima).
+
+    Raises
+    ------
+    ConfigError
+        Naming the setting and the bound.
+    """
+    if backend_name == "kinematic":
+        return
+    timestep_s = config.embodied_timestep_s
+    if not (np.isfinite(timestep_s) and timestep_s >= MIN_TIMESTEP_S):
+        raise ConfigError(f"embodied_timestep_s must be at least {MIN_TIMESTEP_S} s, got {timestep_s!r}")
+    ratio = integer_ratio(CONTROL_S, timestep_s, "control step (8 ms) / embodied_timestep_s")
+    if ratio > MAX_PHYSICS_PER_CONTROL:
+        raise ConfigError(f"8 ms control step / embodied_timestep_s = {ratio}: at most {MAX_PHYSICS_PER_CONTROL}")
+    steps = (config.outbound_s + config.homing_timeout_s) / timestep_s
+    if steps > MAX_PHYSICS_STEPS:
+        raise ConfigError(f"(outbound_s + homing_timeout_s) / embodied_timestep_s = {steps:.3g} physics steps per "
+                          f"trial; at most {MAX_PHYSICS_STEPS:,} (shorten the trip or raise embodied_timestep_s)")
 
 
 def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=None) -> ScenarioResult:
     """All trials of the embodied protocol, one after another (one body per engine).
 
-    With ``video_path``, the first trial is filmed by the follow camera (MP4, sped up
-    ``VIDEO_FPS * VIDEO_EVERY * 8 ms`` = 3.84 times).
+    With ``video_path``, the first trial is filmed by the follow camera: an MP4 that plays in real
+    time (a frame every ``VIDEO_EVERY`` control steps, :class:`neuronav.video.VideoRecorder`).
     """
+    check_embodied(config, backend_name)
     rows, logs = [], []
     for i in range(trials):
         row, log = embodied_trial(config, backend_name, seed + i, video_path if i == 0 else None)
@@ -134,7 +167,7 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
     started = time.perf_counter()
     with engine:
         engine.load(world, [body])
-        video = CameraRecorder("follow", every=VIDEO_EVERY) if video_path is not None else None
+        video = VideoRecorder(video_path, "follow", every=VIDEO_EVERY) if video_path is not None else None
         loop = AgentLoop(engine, gait, clocks, steering=brain, hooks=[video] if video else [])
         loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - heading0)
 
@@ -144,11 +177,13 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
             position = lp.backend.read(("position",))["position"][0]
             return bool(np.hypot(*position) <= config.nest_radius_m)
 
-        loop.run(config.outbound_s + config.homing_timeout_s, until=home)
+        try:
+            loop.run(config.outbound_s + config.homing_timeout_s, until=home)
+        finally:
+            if video is not None:
+                video.close()
         final = engine.read(("position",))["position"][0]
     wall_s = time.perf_counter() - started
-    if video is not None:
-        write_video(video_path, video.frames, fps=VIDEO_FPS)
     log = {k: list(v) for k, v in brain.log.items()}
     log["time_s"].append(np.array(loop.time_s))
     log["position_m"].append(final)

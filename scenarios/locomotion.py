@@ -51,9 +51,10 @@ from bodies.gaits import PostureGait, foot_position, make_gait, segment_pose
 from neuronav import registry
 from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.config import field
+from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
-from neuronav.video import CameraRecorder, write_video
+from neuronav.video import VideoRecorder
 from neuronav.world import Ground, World
 
 TERRAINS = {
@@ -78,6 +79,12 @@ WALL_POSTURE_RAD = {
 WALL_OFFSETS_RAD = {"FL_ThCz": 0.3, "FR_ThCz": 0.3}
 WALL_STARTS = ("wall", "floor")
 ADHESION_RULES = ("touch", "stance")
+# Settings' bounds: every trial ends in bounded time. A trial needs duration_s / timestep_s physics steps
+# (2000 by default); more than MAX_PHYSICS_STEPS (10 minutes of simulated time at 0.6 ms, about 2 minutes
+# of wall time on MuJoCo and 6 on PyBullet at the speeds of benchmarks/locomotion_speed.py) is refused.
+MAX_PHYSICS_STEPS = 1_000_000
+MIN_TIMESTEP_S = 1e-4
+MAX_PHYSICS_PER_CONTROL = 100
 # Starting on the wall: the standing body pressed this far toward the wall, so that every claw
 # touches it at the first step (at exactly the standing height they hang 0.5 mm off it).
 WALL_PRESS_M = 0.002
@@ -92,15 +99,17 @@ class LocomotionConfig:
     terrain: str = field("flat", "ground: flat, uneven-1 (2 cm bumps), uneven-2 (5 cm), wall",
                          choices=tuple(TERRAINS))
     adhesion_n: float = field(0.0, "force pressing each touching claw into its surface (N)", min=0.0, max=1000.0)
-    duration_s: float = field(4.0, "simulated time per trial (s)", min_exclusive=0.0, max=600.0)
+    duration_s: float = field(4.0, "simulated time per trial (s): at least one control step, at most "
+                              f"{MAX_PHYSICS_STEPS:,} physics steps", min_exclusive=0.0, max=600.0)
     turn: float = field(0.0, "rotation configuration θ: 0 straight, ±1 on the spot (+ = left)", min=-1.0, max=1.0)
     stride_deg: float = field(15.0, "hip swing S_l (deg)", min=0.0, max=40.0)
-    timestep_s: float = field(0.002, "physics step (s)", min_exclusive=0.0, max=0.01)
-    control_dt_s: float = field(0.008, "gait step (s): an integer multiple of timestep_s",
-                                min_exclusive=0.0, max=0.1)
-    leg_scale: float = field(1.0, "all leg lengths times this factor", min_exclusive=0.0, max=3.0)
+    timestep_s: float = field(0.002, "physics step (s)", min=MIN_TIMESTEP_S, max=0.01)
+    control_dt_s: float = field(0.008, "gait step (s): an integer multiple of timestep_s, at most "
+                                f"{MAX_PHYSICS_PER_CONTROL} of them", min=MIN_TIMESTEP_S, max=0.1)
+    leg_scale: float = field(1.0, "all leg lengths times this factor (their masses follow the volume)",
+                             min=0.5, max=1.5)
     initial_yaw_jitter_rad: float = field(0.05, "initial yaw uniform in ±this", min=0.0, max=np.pi)
-    roughness_seed_offset: int = field(0, "added to the trial seed to pick the terrain", min=0)
+    roughness_seed_offset: int = field(0, "added to the trial seed to pick the terrain", min=0, max=2**31)
     wall_start: str = field("wall", "terrain=wall: start on the wall, head up (as in I2Bot's climbing world), "
                             "or on the floor walking at it", choices=WALL_STARTS)
     wall_start_height_m: float = field(1.5, "wall_start=wall: the body centre's start height (m)", min=0.8, max=6.0)
@@ -111,8 +120,34 @@ class LocomotionConfig:
 
     def __post_init__(self) -> None:
         # Checked here, not only when running, so that a bad pair is a ConfigError (CLI exit 2) up front.
-        if isinstance(self.control_dt_s, (int, float)) and isinstance(self.timestep_s, (int, float)):
-            integer_ratio(self.control_dt_s, self.timestep_s, "control_dt_s / timestep_s")
+        # (Values outside their own ranges are left to the per-field checks, which name the field.)
+        numbers = (self.control_dt_s, self.timestep_s, self.duration_s)
+        if (all(isinstance(v, (int, float)) and np.isfinite(v) and v > 0 for v in numbers)
+                and min(self.control_dt_s, self.timestep_s) >= MIN_TIMESTEP_S):
+            check_clocks(self)
+
+
+def check_clocks(config: LocomotionConfig) -> None:
+    """The cross-field rules of the three times: they keep every trial finite and bounded.
+
+    Raises
+    ------
+    ConfigError
+        ``control_dt_s`` not a whole multiple of ``timestep_s`` or more than ``MAX_PHYSICS_PER_CONTROL``
+        of them; ``duration_s`` shorter than one control step; a trial of more than ``MAX_PHYSICS_STEPS``
+        physics steps.
+    """
+    ratio = integer_ratio(config.control_dt_s, config.timestep_s, "control_dt_s / timestep_s")
+    if ratio > MAX_PHYSICS_PER_CONTROL:
+        raise ConfigError(f"control_dt_s / timestep_s = {ratio}: at most {MAX_PHYSICS_PER_CONTROL} physics steps "
+                          f"per control step (raise timestep_s or lower control_dt_s)")
+    if config.duration_s < config.control_dt_s:
+        raise ConfigError(f"duration_s = {config.duration_s} s is shorter than one control step "
+                          f"(control_dt_s = {config.control_dt_s} s)")
+    steps = config.duration_s / config.timestep_s
+    if steps > MAX_PHYSICS_STEPS:
+        raise ConfigError(f"duration_s / timestep_s = {steps:.3g} physics steps per trial; at most "
+                          f"{MAX_PHYSICS_STEPS:,} (shorten duration_s or raise timestep_s)")
 
 
 class Locomotion(Scenario):
@@ -132,7 +167,7 @@ class Locomotion(Scenario):
 
     def run(self, config: LocomotionConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
-        integer_ratio(config.control_dt_s, config.timestep_s, "control_dt_s / timestep_s")
+        check_clocks(config)
         rows, series = [], []
         for i in range(trials):
             row, recorded = run_trial(config, backend, seed + i, video_path if i == 0 else None)
@@ -198,22 +233,10 @@ def build_world(config: LocomotionConfig, seed: int) -> World:
     return World(ground=ground, adhesion_n=config.adhesion_n)
 
 
-def ground_height_m(ground: Ground, xy_m, heights_m: np.ndarray | None = None) -> np.ndarray:
-    """Terrain height under each point of ``xy_m`` (..., 2): :meth:`Ground.height_at`, vectorised.
-
-    ``heights_m`` (``ground.heights_m()``) can be passed in when it is already at hand.
-    """
+def ground_height_m(ground: Ground, xy_m) -> np.ndarray:
+    """Terrain height under each point of ``xy_m`` (..., 2): :meth:`Ground.height_at` (the one lookup)."""
     xy_m = np.asarray(xy_m, float)
-    if ground.kind != "uneven" or ground.roughness_m == 0:
-        return np.zeros(xy_m.shape[:-1])
-    heights = ground.heights_m() if heights_m is None else heights_m
-    half, scale = ground.size_m / 2.0, (ground.cells - 1) / ground.size_m
-    u = np.clip((xy_m[..., 0] + half) * scale, 0, ground.cells - 1.000001)
-    v = np.clip((xy_m[..., 1] + half) * scale, 0, ground.cells - 1.000001)
-    j, i = u.astype(int), v.astype(int)
-    fu, fv = u - j, v - i
-    return ((1 - fv) * ((1 - fu) * heights[i, j] + fu * heights[i, j + 1])
-            + fv * ((1 - fu) * heights[i + 1, j] + fu * heights[i + 1, j + 1]))
+    return np.asarray(ground.height_at(xy_m[..., 0], xy_m[..., 1]), float)
 
 
 def start_position_m(ground: Ground, body: BodySpec, yaw_rad: float, rng: np.random.Generator,
@@ -231,9 +254,8 @@ def start_position_m(ground: Ground, body: BodySpec, yaw_rad: float, rng: np.ran
     rotation = np.array([[np.cos(yaw_rad), -np.sin(yaw_rad)], [np.sin(yaw_rad), np.cos(yaw_rad)]])
     feet = np.array([foot_position(body, leg, body.rest_pose_rad())[:2] for leg in LEGS]) @ rotation.T
     candidates = np.vstack([[0.0, 0.0], rng.uniform(-radius_m, radius_m, size=(tries, 2))])
-    heights = ground.heights_m()
-    under_root = ground_height_m(ground, candidates, heights)
-    under_feet = ground_height_m(ground, candidates[:, None, :] + feet[None, :, :], heights)  # (tries + 1, 6)
+    under_root = ground_height_m(ground, candidates)
+    under_feet = ground_height_m(ground, candidates[:, None, :] + feet[None, :, :])  # (tries + 1, 6)
     excess = under_feet.max(axis=1) - under_root
     clear = np.flatnonzero(excess <= 1e-3)
     best = clear[0] if clear.size else int(np.argmin(excess))  # the first clear spot, else the least buried
@@ -323,8 +345,8 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
     yaw0 = float(rng.uniform(-config.initial_yaw_jitter_rad, config.initial_yaw_jitter_rad))
     world = build_world(config, seed)
     recorder = LocomotionRecorder(body, steps, config.control_dt_s)
-    # 31 frames per second of 8 ms gait steps: real time.
-    camera = CameraRecorder("follow", every=4) if video_path is not None else None
+    # A frame every 4 gait steps (31.25 per second at 8 ms), played in real time.
+    camera = VideoRecorder(video_path, "follow", every=4) if video_path is not None else None
     pose = start_pose_kwargs(config, body, world.ground, yaw0, rng)
     hooks = [recorder] + ([StanceAdhesion(body)] if config.adhesion_rule == "stance" else [])
     with registry.load("backend", backend_name)(timestep_s=config.timestep_s) as engine:
@@ -333,11 +355,13 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
                          turn=config.turn, stride_rad=np.radians(config.stride_deg))
         loop.reset(seed=seed, **pose)
         started = time.perf_counter()
-        loop.run(config.duration_s)
-        wall_s = time.perf_counter() - started
+        try:
+            loop.run(config.duration_s)
+        finally:
+            wall_s = time.perf_counter() - started
+            if camera is not None:
+                camera.close()
     recorder.record["ground_m"] = ground_height_m(world.ground, recorder.record["position_m"][:, :2])
-    if video_path is not None:
-        write_video(video_path, camera.frames, fps=1.0 / (4 * config.control_dt_s))
     metrics = trial_metrics(recorder.record, config, body.total_mass_kg, recorder.work_j,
                             recorder.torque_sum / max(steps, 1), loop.gait_time_s / max(steps, 1), wall_s)
     return metrics, recorder.record

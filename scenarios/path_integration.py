@@ -114,6 +114,10 @@ class PathIntegration(Scenario):
         if self.protocol(config, backend) == "stone2017" and backend != "kinematic":
             raise ConfigError(f"the stone2017 protocol moves point agents: it runs on the kinematic backend, "
                               f"not {backend!r} (use protocol=i2bot)")
+        if self.protocol(config, backend) == "i2bot":  # physics steps bounded (the embodied module's rules)
+            from scenarios.embodied_homing import check_embodied
+
+            check_embodied(config, backend)
     # -- end: Scenario.check hook --
 
     # -- running -------------------------------------------------------------------------------

@@ -50,7 +50,7 @@ Design
 - Speed: the control law runs in Python at every PyBullet step, so that step does one batched joint
   read (``getJointStates``), one batched torque command (``setJointMotorControlArray``) and numpy on
   preallocated arrays; contact points are only queried when ``contact_force`` is read or adhesion is on.
-- The floor is a checker (0.5 m squares, one texture over the whole ground) so that motion shows in
+- The floor is a checker (one texture stretched over the whole ground) so that motion shows in
   videos, as on MuJoCo.
 - What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in
   :attr:`warnings`, as are the notes above and the reason of a divergence.
@@ -69,8 +69,10 @@ from __future__ import annotations
 
 import math
 import os
+import struct
 import sys
 import tempfile
+import zlib
 from collections.abc import Sequence
 
 import numpy as np
@@ -122,7 +124,7 @@ PAD_DAMPING_N_S_M = 500.0
 NEAR_M, FAR_M = 0.005, 200.0
 EYE_NUDGE_M = np.array([3.1e-7, 1.7e-7, 0.0])
 GROUND_RGBA = (0.76, 0.68, 0.52, 1.0)
-# The floor's checker: the same two sand colours as MuJoCo's, squares of CHECKER_M.
+# The floor's checker: two sand colours like MuJoCo's, CHECKER_M squares in the texture over the ground's size.
 CHECKER_RGB = ((219, 194, 143), (168, 145, 102))
 CHECKER_M = 0.5
 WALL_THICKNESS_M = 0.2
@@ -351,7 +353,7 @@ class PybulletBackend(ArticulatedBackend):
                 fastest = np.abs(qd).max()
                 if not (fastest < DIVERGED_VELOCITY and np.isfinite(q).all()):  # NaN fails the comparison too
                     self._joint_diverged(q, qd)
-                torque = np.clip(kp * (targets - q) - kd * qd, -limit, limit)
+                torque = np.minimum(np.maximum(kp * (targets - q) - kd * qd, -limit), limit)
                 pb.setJointMotorControlArray(robot, joints, TORQUE_CONTROL, forces=torque, physicsClientId=cid)
             if self._pending:
                 frames = self._frames(sorted({link for link, _, _ in self._pending}))
@@ -550,15 +552,15 @@ class PybulletBackend(ArticulatedBackend):
             self._set_friction(wall)
 
     def _checker_texture(self, size_m: float) -> int:
-        """A checker of ``CHECKER_M`` squares over ``size_m`` (a binary PPM in the temporary folder)."""
+        """A checker of ``CHECKER_M`` squares over ``size_m`` (a PNG in the temporary folder)."""
         squares = max(1, int(round(size_m / CHECKER_M)))
-        path = os.path.join(self._tmpdir.name, f"checker_{squares}.ppm")
+        path = os.path.join(self._tmpdir.name, f"checker_{squares}.png")
         if not os.path.exists(path):
             pixels = 8  # per square: TinyRenderer samples the nearest texel
             parity = (np.add.outer(np.arange(squares * pixels) // pixels, np.arange(squares * pixels) // pixels)) % 2
             image = np.where(parity[..., None] == 0, CHECKER_RGB[0], CHECKER_RGB[1]).astype(np.uint8)
             with open(path, "wb") as handle:
-                handle.write(f"P6 {image.shape[1]} {image.shape[0]} 255\n".encode() + image.tobytes())
+                handle.write(_png(image))
         return pb.loadTexture(path, physicsClientId=self._client)
 
     def _build_object(self, obj: WorldObject) -> None:
@@ -805,6 +807,17 @@ class PybulletBackend(ArticulatedBackend):
         if self.body is None or self._client is None:
             raise SimulationError("pybullet backend: call load(world, [body_spec]) first (or it was closed)")
         return self.body
+
+
+def _png(image: np.ndarray) -> bytes:
+    """An RGB uint8 image (H, W, 3) as PNG bytes (no imaging library needed)."""
+    def chunk(tag: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
+
+    height, width = image.shape[:2]
+    rows = b"".join(b"\x00" + row.tobytes() for row in np.ascontiguousarray(image, np.uint8))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
 
 
 def _geom_reach(geom, axes: np.ndarray) -> np.ndarray:
