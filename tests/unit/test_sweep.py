@@ -261,3 +261,86 @@ def test_sweep_figure_leaves_out_metrics_undefined_everywhere():
              "turn_rate": float("nan"), "label": "x"} for i, a in enumerate((0.0, 120.0))]
     rows.append({"trial": 2, "seed": 2, "status": "failed", "error": "boom", "adhesion_n": 200.0})
     assert plotted_metrics([r for r in rows if r["status"] == "ok"], ["adhesion_n"]) == ["climb_m"]
+
+
+def figure_rows(x_values, metrics=15, series=("a", "b")):
+    rows = []
+    for x in x_values:
+        for s in series:
+            for trial in range(2):
+                row = {"gait": x, "terrain": s, "trial": trial, "seed": trial, "status": "ok", "error": ""}
+                row.update({f"metric_{m:02d}": float(m + trial) for m in range(metrics)})
+                rows.append(row)
+    return rows
+
+
+def test_sweep_figure_shows_every_metric_with_y_labels_and_categorical_grids_as_points():
+    from neuronav.sweep_figures import build_metrics_figure
+
+    rows = figure_rows(["tripod", "wave", "ripple"])
+    fig = build_metrics_figure(rows, ["gait", "terrain"])
+    panels = [ax for ax in fig.axes if ax.axison]
+    assert len(panels) == 15  # every metric, not the first 12
+    assert [ax.get_ylabel() for ax in panels] == [f"metric_{m:02d}" for m in range(15)]
+    for ax in panels:
+        assert [t.get_text() for t in ax.get_xticklabels()] == ["tripod", "wave", "ripple"]
+        data_lines = [container.lines[0] for container in ax.containers]  # each errorbar's data line
+        assert len(data_lines) == 2 and all(len(line.get_xdata()) == 3 for line in data_lines)  # one per terrain
+        for line in data_lines:
+            assert line.get_linestyle() == "None" and line.get_marker() == "o"  # points: categories are not a scale
+        offsets = {tuple(np.round(np.asarray(line.get_xdata(), float), 6)) for line in data_lines}
+        assert len(offsets) == 2  # the two series side by side, not on top of each other
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_sweep_figure_joins_numeric_grid_values_with_lines():
+    from neuronav.sweep_figures import build_metrics_figure
+
+    fig = build_metrics_figure(figure_rows([0.0, 0.1, 0.3], metrics=2, series=("a",)), ["gait", "terrain"])
+    panels = [ax for ax in fig.axes if ax.axison]
+    assert len(panels) == 2 and all(ax.get_ylabel() for ax in panels)
+    (line,) = [container.lines[0] for container in panels[0].containers]
+    assert line.get_linestyle() == "-" and list(line.get_xdata()) == [0.0, 0.1, 0.3]
+    np.testing.assert_allclose(np.asarray(line.get_ydata(), float), [0.5, 0.5, 0.5])  # mean over the two trials
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+
+
+def test_dask_cluster_with_worker_processes_runs_a_sweep(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    options = dict(trials=4, seed=2, overrides=SHORT, chunk_size=1, progress=False, figures=False)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  protocol="tcp", dashboard_address=None) as cluster:
+        summary = run_sweep("path-integration", ["noise=0.0,0.2"], scheduler=cluster.scheduler_address,
+                            out_dir=tmp_path / "dask", **options)
+        with distributed.Client(cluster.scheduler_address, set_as_default=False) as client:
+            worker_pids = set(client.run(os.getpid).values())
+    assert summary["total_trials"] == 8 and summary["failed_trials"] == 0
+    rows = read_rows(tmp_path / "dask" / "trials.csv")
+    assert sorted((r["noise"], int(r["trial"])) for r in rows) == [(n, t) for n in ("0.0", "0.2") for t in range(4)]
+    workers = {meta["worker"].rsplit(":", 1)[1] for point in ("noise=0.0", "noise=0.2")
+               for _, _, path in list_parts(tmp_path / "dask" / "parts" / point)
+               for meta in [read_part(path, timeseries=False)[2]]}
+    assert workers and {int(w) for w in workers} <= worker_pids and os.getpid() not in worker_pids
+    run_sweep("path-integration", ["noise=0.0,0.2"], workers=1, out_dir=tmp_path / "here", **options)
+    assert read_rows(tmp_path / "here" / "trials.csv") == rows  # the same numbers in other processes
+
+
+def test_no_module_of_the_run_stack_imports_one_above_it():
+    """runner -> sweep -> assembly -> executors -> trials: the imports point one way (no cycle)."""
+    import ast
+    from pathlib import Path
+
+    import neuronav
+
+    order = ["runner", "sweep", "assembly", "executors", "trials"]
+    root = Path(neuronav.__file__).parent
+    for i, module in enumerate(order):
+        tree = ast.parse((root / f"{module}.py").read_text())
+        imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module}
+        imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+        above = {f"neuronav.{m}" for m in order[:i]}
+        assert not imported & above, (module, imported & above)

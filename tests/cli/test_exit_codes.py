@@ -1,0 +1,173 @@
+"""Exit codes and input checks of the CLI: 2 for anything knowable from the settings (before any
+trial runs or anything is written), 1 when trials failed, 0 when every trial ran."""
+
+import csv
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+NEURONAV = str(Path(sys.executable).with_name("neuronav"))
+SHORT = ["--set", "outbound_steps=100", "--set", "inbound_steps=100"]
+
+# A third-party scenario, registered the way any plugin is (an entry point of an installed
+# distribution): trial with seed s raises when s is in ``raise_seeds``.
+PLUGIN = '''
+from dataclasses import dataclass
+
+from neuronav.config import field
+from neuronav.scenario import Scenario, ScenarioResult
+
+
+@dataclass
+class BrittleConfig:
+    raise_seeds: str = field("", "comma-separated seeds whose trials raise")
+    level: int = field(0, "a grid key", min=0)
+
+
+class Brittle(Scenario):
+    name = "brittle"
+    description = "test-only: some trials raise"
+    config_type = BrittleConfig
+    backends = ("kinematic", "mujoco")
+    default_backend = "kinematic"
+    max_trials = 50
+
+    def run(self, config, *, backend, trials, seed, video_path=None):
+        bad = {int(s) for s in config.raise_seeds.split(",") if s}
+        for s in range(seed, seed + trials):
+            if s in bad:
+                raise RuntimeError(f"trial with seed {s} broke")
+        rows = [{"trial": i, "seed": seed + i, "success": False, "value": float(seed + i)} for i in range(trials)]
+        return ScenarioResult(trials=rows)
+
+    def figures(self, result, config, out_dir):
+        return []
+'''
+
+
+@pytest.fixture(scope="module")
+def plugin_env(tmp_path_factory):
+    root = tmp_path_factory.mktemp("plugin")
+    (root / "brittle_plugin.py").write_text(PLUGIN)
+    info = root / "brittle_plugin-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: brittle-plugin\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[neuronav.scenarios]\nbrittle = brittle_plugin:Brittle\n")
+    return dict(os.environ, PYTHONPATH=str(root))
+
+
+def neuronav(*args, env=None, timeout=300):
+    return subprocess.run([NEURONAV, *args], capture_output=True, text=True, timeout=timeout, env=env)
+
+
+def assert_refused(result, *fragments):
+    assert result.returncode == 2, (result.stdout, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0], lines[0]
+
+
+# -- 2: found before the first trial, nothing written -------------------------------------------------
+
+@pytest.mark.parametrize("args, message", [
+    (["run", "path-integration", "--backend", "mujoco", "--set", "protocol=stone2017"],
+     "the stone2017 protocol moves point agents"),
+    (["sweep", "path-integration", "--backend", "mujoco", "--grid", "protocol=i2bot,stone2017"],
+     "the stone2017 protocol moves point agents"),
+    (["compare", "path-integration", "--backends", "kinematic,mujoco", "--set", "protocol=stone2017"],
+     "not 'mujoco'"),
+    (["compare", "path-integration", "--backends", "kinematic,warp"], "unknown backend 'warp'"),
+    (["compare", "path-integration", "--backends", "kinematic,,mujoco"], "--backends needs comma-separated"),
+    (["run", "path-integration", "--backend", ""], "--backend needs a backend name, got ''"),
+    (["run", "path-integration", "--trials", "1000000000"], "trials must be at most 1000000 per run"),
+    (["sweep", "path-integration", "--grid", "noise=0.1,,0.2"], "--grid 'noise' has an empty value"),
+    (["sweep", "locomotion", "--grid", "gait=tripod,,wave"], "--grid 'gait' has an empty value"),
+    (["sweep", "path-integration", "--grid", "noise=0.1,"], "--grid 'noise' has an empty value"),
+    (["run", "path-integration", "--scheduler", "http://127.0.0.1:8786"], "(http:// is its dashboard)"),
+    (["run", "path-integration", "--scheduler", "tcp://127.0.0.1:1"], "cannot reach the Dask scheduler"),
+])
+def test_errors_knowable_from_the_settings_exit_2_before_anything_runs(tmp_path, args, message):
+    out = tmp_path / "out"
+    result = neuronav(*args, "--out", str(out), timeout=60)  # no waiting for a scheduler's timeout
+    assert_refused(result, message)
+    assert not out.exists()
+
+
+def test_the_config_file_is_checked_after_set_overrides_it(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text("noise = 5.0\noutbound_steps = 100\ninbound_steps = 100\n")
+    assert_refused(neuronav("run", "path-integration", "--config", str(bad), "--out", str(tmp_path / "a")),
+                   f"config file {str(bad)!r}: key 'noise' must be <= 1.0")
+    out = tmp_path / "b"
+    result = neuronav("run", "path-integration", "--config", str(bad), "--set", "noise=0.2", "--no-figures",
+                      "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert json.loads((out / "summary.json").read_text())["config"]["noise"] == 0.2
+    # A grid value wins over the file too.
+    result = neuronav("sweep", "path-integration", "--config", str(bad), "--grid", "noise=0.0,0.2", "--workers", "1",
+                      "--no-figures", "--out", str(tmp_path / "c"))
+    assert result.returncode == 0, result.stderr
+
+
+def test_a_scenarios_own_trial_cap_is_enforced(tmp_path, plugin_env):
+    assert_refused(neuronav("run", "brittle", "--trials", "51", "--out", str(tmp_path / "o"), env=plugin_env),
+                   "trials must be at most 50 per run of 'brittle', got 51")
+
+
+# -- 1: trials failed; 0: every trial ran --------------------------------------------------------------
+
+def test_an_ant_that_does_not_get_home_is_not_a_failure(tmp_path):
+    out = tmp_path / "run"
+    result = neuronav("run", "path-integration", "--trials", "2", "--set", "outbound_steps=200",
+                      "--set", "inbound_steps=1", "--set", "success_radius=0.001", "--no-figures", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader((out / "trials.csv").open()))
+    assert [r["success"] for r in rows] == ["False", "False"] and {r["status"] for r in rows} == {"ok"}
+
+
+def test_run_with_failed_trials_exits_1_naming_the_count_and_first_reason(tmp_path, plugin_env):
+    out = tmp_path / "run"
+    result = neuronav("run", "brittle", "--trials", "5", "--set", "raise_seeds=3,1", "--out", str(out), env=plugin_env)
+    assert result.returncode == 1, result.stderr
+    assert result.stderr.strip().splitlines() == [
+        "neuronav: 2 of 5 trials failed; first: trial 1: RuntimeError: trial with seed 1 broke"]
+    rows = list(csv.DictReader((out / "trials.csv").open()))
+    assert [r["status"] for r in rows] == ["ok", "failed", "ok", "failed", "ok"]
+    clean = neuronav("run", "brittle", "--trials", "5", "--out", str(tmp_path / "clean"), env=plugin_env)
+    assert clean.returncode == 0 and clean.stderr == ""
+
+
+def test_sweep_and_compare_with_failed_trials_exit_1(tmp_path, plugin_env):
+    result = neuronav("sweep", "brittle", "--grid", "level=0,1", "--trials", "3", "--set", "raise_seeds=2",
+                      "--workers", "2", "--out", str(tmp_path / "sweep"), env=plugin_env)
+    assert result.returncode == 1, result.stderr
+    assert result.stderr.strip().splitlines() == [
+        "neuronav: 2 of 6 trials failed; first: level=0 trial 2: RuntimeError: trial with seed 2 broke"]
+    result = neuronav("compare", "brittle", "--backends", "kinematic,mujoco", "--trials", "2",
+                      "--set", "raise_seeds=0", "--out", str(tmp_path / "cmp"), env=plugin_env)
+    assert result.returncode == 1, result.stderr
+    assert result.stderr.strip().splitlines()[-1] == (
+        "neuronav: 2 of 4 trials failed; first: kinematic trial 0: RuntimeError: trial with seed 0 broke")
+    assert "| kinematic |" in result.stdout and "| mujoco |" in result.stdout
+
+
+# -- compare on several backends ---------------------------------------------------------------------
+
+def test_compare_runs_path_integration_on_kinematic_and_mujoco(tmp_path):
+    pytest.importorskip("mujoco")
+    out = tmp_path / "cmp"
+    result = neuronav("compare", "path-integration", "--backends", "kinematic,mujoco", "--trials", "2",
+                      "--set", "outbound_s=1", "--set", "homing_timeout_s=1", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    rows = list(csv.DictReader((out / "compare.csv").open()))
+    assert [r["backend"] for r in rows] == ["kinematic", "mujoco"]
+    assert all(r["trials"] == "2" and r["failed_trials"] == "0" for r in rows)
+    for backend in ("kinematic", "mujoco"):
+        summary = json.loads((out / backend / "summary.json").read_text())
+        assert summary["backend"] == backend and summary["config"]["protocol"] == "i2bot"  # one protocol for both
+    assert (out / "compare.png").stat().st_size > 5000

@@ -1,0 +1,134 @@
+"""Run folders: a run writes only into a new folder, an empty one, or one a neuronav run made; a
+start that failed leaves no results behind; no lock file is left in a finished folder."""
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from neuronav.errors import ConfigError
+from neuronav.rundir import MARKER_FILE, DirectoryLock, claim_out_dir
+
+NEURONAV = str(Path(sys.executable).with_name("neuronav"))
+SHORT = ["--set", "outbound_steps=100", "--set", "inbound_steps=100"]
+
+
+def neuronav(*args, cwd=None):
+    return subprocess.run([NEURONAV, *args], capture_output=True, text=True, timeout=300, cwd=cwd)
+
+
+def snapshot(folder: Path) -> dict:
+    """Every entry under ``folder`` with its content (files) — to show nothing was touched."""
+    return {str(p.relative_to(folder)): (p.read_bytes() if p.is_file() else None, p.stat().st_mtime_ns)
+            for p in sorted(folder.rglob("*"))}
+
+
+def assert_refused(result, *fragments):
+    assert result.returncode == 2, (result.stdout, result.stderr)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
+    for fragment in fragments:
+        assert fragment in lines[0]
+
+
+@pytest.fixture
+def users_folder(tmp_path):
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    (folder / "summary.json").write_text('{"my": "own results"}\n')
+    (folder / "trials.csv").write_text("a,b\n1,2\n")
+    return folder
+
+
+@pytest.mark.parametrize("command", [
+    ["run", "path-integration", *SHORT],
+    ["sweep", "path-integration", "--grid", "noise=0.0,0.1", "--workers", "1", *SHORT],
+    ["compare", "path-integration", "--backends", "kinematic", *SHORT],
+])
+def test_a_folder_of_the_users_own_files_is_refused_and_untouched(users_folder, command):
+    before = snapshot(users_folder)
+    result = neuronav(*command, "--out", str(users_folder))
+    assert_refused(result, f"--out {str(users_folder)!r}", "no neuronav run wrote", MARKER_FILE)
+    assert snapshot(users_folder) == before
+
+
+def test_compare_checks_each_backend_folder_before_running(tmp_path):
+    out = tmp_path / "cmp"
+    assert neuronav("compare", "path-integration", "--backends", "kinematic", *SHORT, "--out", str(out)).returncode == 0
+    (out / "mujoco").mkdir()
+    (out / "mujoco" / "notes.txt").write_text("mine\n")
+    before = snapshot(out)
+    result = neuronav("compare", "path-integration", "--backends", "kinematic,mujoco", *SHORT, "--out", str(out))
+    assert_refused(result, "mujoco", "no neuronav run wrote")
+    assert snapshot(out) == before  # the kinematic run did not start either
+
+
+def test_run_root_and_empty_out_are_refused(tmp_path):
+    root = set(os.listdir("/"))
+    assert_refused(neuronav("run", "path-integration", *SHORT, "--out", "/"), "--out '/'")
+    assert set(os.listdir("/")) == root
+    (tmp_path / "keep.txt").write_text("mine\n")
+    before = snapshot(tmp_path)
+    assert_refused(neuronav("run", "path-integration", *SHORT, "--out", "", cwd=tmp_path), "--out '' is empty")
+    assert snapshot(tmp_path) == before
+
+
+def test_a_run_folder_cannot_be_reused_across_run_and_compare(tmp_path):
+    out = tmp_path / "cmp"
+    assert neuronav("compare", "path-integration", "--backends", "kinematic", *SHORT, "--out", str(out)).returncode == 0
+    before = snapshot(out)
+    assert_refused(neuronav("run", "path-integration", *SHORT, "--out", str(out)), "results of a neuronav compare")
+    assert snapshot(out) == before
+
+
+def test_an_empty_folder_is_used_and_a_finished_run_leaves_no_lock_file(tmp_path):
+    out = tmp_path / "empty"
+    out.mkdir()
+    result = neuronav("run", "path-integration", "--trials", "2", *SHORT, "--no-figures", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    names = {p.name for p in out.iterdir()}
+    assert names == {MARKER_FILE, "settings.json", "parts", "summary.json", "trials.csv", "timeseries.h5"}
+    assert json.loads((out / MARKER_FILE).read_text())["kind"] == "run"
+    assert not list(out.rglob("*.lock"))
+
+
+def test_the_marker_is_the_lock_and_is_released(tmp_path):
+    out = claim_out_dir(tmp_path / "run")
+    with DirectoryLock(out):
+        with pytest.raises(ConfigError, match="in use by another neuronav process"):
+            with DirectoryLock(out):
+                pass
+    with DirectoryLock(out):  # released when its holder let go
+        pass
+    assert sorted(p.name for p in out.iterdir()) == [MARKER_FILE]
+
+
+def test_a_failed_start_leaves_nothing(tmp_path):
+    out = tmp_path / "run"
+    result = neuronav("run", "path-integration", *SHORT, "--scheduler", "tcp://127.0.0.1:1", "--out", str(out))
+    assert_refused(result, "cannot reach the Dask scheduler at tcp://127.0.0.1:1")
+    assert not out.exists()
+    out.mkdir()
+    result = neuronav("run", "path-integration", *SHORT, "--scheduler", "tcp://127.0.0.1:1", "--out", str(out))
+    assert_refused(result, "cannot reach the Dask scheduler")
+    assert list(out.iterdir()) == []
+    result = neuronav("run", "path-integration", *SHORT, "--set", "noise=0.2", "--no-figures", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+
+
+def test_a_folder_without_finished_trials_may_take_other_settings(tmp_path):
+    """A start that wrote settings.json but finished no trial (killed at once): its folder holds no results."""
+    out = tmp_path / "run"
+    args = ["run", "path-integration", "--trials", "2", *SHORT, "--no-figures", "--out", str(out)]
+    assert neuronav(*args).returncode == 0
+    refused = neuronav(*args[:-2], "--set", "noise=0.3", "--out", str(out))
+    assert_refused(refused, "holds results with other settings")
+    for path in [*out.glob("parts/*.npz"), out / "summary.json", out / "trials.csv", out / "timeseries.h5"]:
+        path.unlink()  # as if the first start had died before its first trial finished
+    result = neuronav(*args[:-2], "--set", "noise=0.3", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert json.loads((out / "settings.json").read_text())["config"]["noise"] == 0.3
+    assert json.loads((out / "summary.json").read_text())["config"]["noise"] == 0.3
