@@ -390,9 +390,10 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
         raise ConfigError(f"{flag} {out_dir!r} is empty; give a folder for the results")
     try:
         path = Path(out_dir)
-    except TypeError as error:
+        exists = path.exists()
+    except (TypeError, ValueError, OSError) as error:
         raise ConfigError(f"{flag} {out_dir!r} is not a usable path ({error})") from None
-    if not path.exists():
+    if not exists:
         if path.is_symlink():
             raise ConfigError(f"{flag} {_out_label(path)} is a broken link; give a folder")
         return path
