@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
+from neuronav.articulated import check_seed
 from neuronav.backend import BackendBase, Capabilities
 from neuronav.errors import ConfigError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
@@ -162,8 +163,10 @@ class KinematicBackend(BackendBase):
         """Put every agent at ``position_m``, at rest, facing ``heading_rad`` (default 0: along +y).
 
         ``yaw_rad`` (counter-clockwise from +x, as the physics backends take it) may be given
-        instead of the heading: heading = π/2 − yaw.
+        instead of the heading: heading = π/2 − yaw. ``seed`` (None or an int >= 0, as on every
+        backend) changes nothing here: the point agents have no random state.
         """
+        check_seed("kinematic", seed)
         n = self.batch
         if yaw_rad is not None:
             heading_rad = np.pi / 2 - np.asarray(yaw_rad, float)
@@ -172,6 +175,7 @@ class KinematicBackend(BackendBase):
         self.heading = np.zeros(n) if heading_rad is None else np.broadcast_to(
             np.asarray(heading_rad, float), (n,)).copy()
         self._commands = {m.name: np.zeros((n, 1)) for m in self.capabilities.motors}
+        self._push = None  # (batch, 2) velocity change per step from apply_force, for the next step() call
         self._time_s = 0.0
 
     def write(self, commands: dict[str, np.ndarray]) -> None:
@@ -180,10 +184,13 @@ class KinematicBackend(BackendBase):
 
     def step(self, n: int = 1) -> None:
         agents = self._require()
+        push, self._push = self._push, None
         for _ in range(int(n)):
             if agents.mode == "stone":
                 self.heading += self._commands["rotation"][:, 0]
                 thrust = self._commands["acceleration"][:, 0, None] * self._direction()
+                if push is not None:
+                    thrust += push
                 self.velocity = (self.velocity + thrust) * (1.0 - agents.drag)
                 self.position += self.velocity
             else:
@@ -192,6 +199,8 @@ class KinematicBackend(BackendBase):
                 query = np.stack([turn, stride], axis=1)
                 self.heading += self._turn_rate(query) * self.timestep
                 self.velocity = self._speed(query)[:, None] * self._direction()
+                if push is not None:
+                    self.velocity += push
                 self.position += self.velocity * self.timestep
             self._time_s += self.timestep
         # One sum is finite exactly when every term is (or it overflowed: diverged all the same).
@@ -215,14 +224,27 @@ class KinematicBackend(BackendBase):
         raise SimulationError("the kinematic backend has no cameras; render with mujoco or pybullet")
 
     def apply_force(self, body: int, site: str, force: np.ndarray) -> None:
-        """Push agent ``body`` for one step: velocity += force[:2] * dt / mass (site is ignored)."""
+        """Push agent ``body`` with a world-frame ``force`` (2 or 3 numbers; z is ignored) during every
+        step of the next :meth:`step` call, as the physics backends do (``site`` is ignored).
+
+        Each of those steps adds ``force[:2] * dt / mass_kg`` to the agent's velocity before it moves.
+        In ``stone`` mode the velocity carries over (then drag slows it, as it does the thrust); in
+        ``unicycle`` mode the gait sets the velocity again every step, so the push displaces the
+        agent by ``force * dt² / mass_kg`` per step of that call and is gone after it. Pushes on the
+        same agent before one step add up.
+        """
         agents = self._require()
-        if not 0 <= int(body) < agents.count:
-            raise ConfigError(f"apply_force: agent {body} out of range 0..{agents.count - 1}")
-        force = np.asarray(force, float).reshape(-1)
-        if force.size not in (2, 3):
-            raise ConfigError(f"apply_force: force must have 2 or 3 components, got {force.size}")
-        self.velocity[int(body)] += force[:2] * self.timestep / agents.mass_kg
+        if isinstance(body, bool) or not isinstance(body, (int, np.integer)) or not 0 <= body < agents.count:
+            raise ConfigError(f"apply_force: agent {body!r} out of range 0..{agents.count - 1}")
+        try:
+            force = np.asarray(force, float).reshape(-1)
+        except (TypeError, ValueError):
+            raise ConfigError(f"apply_force: force must be 2 or 3 finite numbers, got {force!r}") from None
+        if force.size not in (2, 3) or not np.isfinite(force).all():
+            raise ConfigError(f"apply_force: force must be 2 or 3 finite numbers, got {force.tolist()}")
+        if self._push is None:
+            self._push = np.zeros((agents.count, 2))
+        self._push[int(body)] += force[:2] * self.timestep / agents.mass_kg
 
     # -- helpers -------------------------------------------------------------------------------
     def _direction(self) -> np.ndarray:

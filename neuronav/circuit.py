@@ -24,6 +24,8 @@ from neuronav.errors import CircuitError
 from neuronav.ports import MotorSpec, SensorSpec
 
 KINDS = ("input", "rate", "leaky", "integrator", "output")
+# Keyword options of Circuit.compile besides batch, seed and dt_s (see CompiledCircuit).
+COMPILE_OPTIONS = ("seeds", "dtype", "sparse", "noise_method", "check_inputs")
 
 
 def _declaration(method):
@@ -358,9 +360,14 @@ class Circuit:
         """Build the circuit into a :class:`~neuronav.compiled.CompiledCircuit`; options as there.
 
         ``dt_s`` defaults to the circuit's own ``dt_s`` (set by factories such as the ring attractor).
+        Other options: :data:`COMPILE_OPTIONS`; any other name is a :class:`CircuitError`.
         """
         from neuronav.compiled import CompiledCircuit
 
+        unknown = sorted(map(str, set(options) - set(COMPILE_OPTIONS)))
+        if unknown:
+            raise CircuitError(f"compile: unknown option {', '.join(unknown)}; allowed: batch, seed, dt_s, "
+                               f"{', '.join(COMPILE_OPTIONS)}")
         return CompiledCircuit(self, batch=batch, seed=seed, dt_s=self.dt_s if dt_s is None else dt_s, **options)
 
     def __repr__(self) -> str:

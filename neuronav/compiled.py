@@ -82,7 +82,15 @@ def _overlaps(a: slice, b: slice) -> bool:
 
 
 def _available_memory_bytes() -> int:
-    """Physical memory not in use (Linux/Unix), or :data:`DEFAULT_MEMORY_CAP_BYTES` where unknown."""
+    """Memory available to a new allocation: Linux's MemAvailable (free plus reclaimable cache), else
+    the free physical pages, else :data:`DEFAULT_MEMORY_CAP_BYTES` where neither can be read."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
     try:
         return int(os.sysconf("SC_AVPHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
     except (AttributeError, ValueError, OSError):
@@ -734,12 +742,12 @@ class CompiledCircuit:
                 lowest, highest = value.min(), value.max()  # NaN when any value is NaN
                 if lowest >= low and highest <= high and np.isfinite(lowest) and np.isfinite(highest):
                     continue
-            bad = value[~(np.isfinite(value) & (value >= low) & (value <= high))].ravel()[0]
+            bad = float(value[~(np.isfinite(value) & (value >= low) & (value <= high))].ravel()[0])
             if not np.isfinite(bad):
                 raise PortError(f"circuit {self.circuit.name!r}: port {port!r} needs finite values, got {bad!r} "
                                 "(compile with check_inputs=False to skip this check)")
             raise PortError(
-                f"circuit {self.circuit.name!r}: port {port!r} accepts values in [{low:g}, {high:g}], got {bad!r}"
+                f"circuit {self.circuit.name!r}: port {port!r} accepts values in [{low:g}, {high:g}], got {bad:g}"
             )
 
     def _add_noise(self, rates: np.ndarray, noise: np.ndarray, columns: tuple[int, int, float]) -> None:
