@@ -48,8 +48,9 @@ Design
   heightfield is a surface that pushes a sunken geom down. Here the overlap is measured from the
   geoms' extents against :meth:`Ground.height_at`.
 - Speed: the control law runs in Python at every PyBullet step, so that step does one batched joint
-  read (``getJointStates``), one batched torque command (``setJointMotorControlArray``) and numpy on
-  preallocated arrays; contact points are only queried when ``contact_force`` is read or adhesion is on.
+  read (``getJointStates``), one batched torque command (``setJointMotorControlArray``) and a few
+  numpy operations on (J,) arrays; the root's pose is read without scipy; contact points are only
+  queried when ``contact_force`` is read or adhesion is on.
 - The floor is a checker (one texture stretched over the whole ground) so that motion shows in
   videos, as on MuJoCo.
 - What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in

@@ -215,7 +215,39 @@ def test_control_step_must_be_a_multiple_of_the_physics_step():
     assert apply_overrides(LocomotionConfig, ["timestep_s=0.001", "control_dt_s=0.008"]).control_dt_s == 0.008
 
 
-@pytest.mark.parametrize("setting", ["gait=gallop", "terrain=ice", "adhesion_n=-5", "control_dt_s=0.007"])
+@pytest.mark.parametrize("settings, fragment", [
+    (["timestep_s=1e-300"], "timestep_s"),  # used to hang: 8e297 physics steps per control step
+    (["control_dt_s=1e-300"], "control_dt_s"),
+    (["timestep_s=0.0001", "control_dt_s=0.05"], "at most 100 physics steps per control step"),
+    (["timestep_s=0.0001", "duration_s=600"], "at most 1,000,000"),
+    (["duration_s=0.004"], "shorter than one control step"),
+    (["leg_scale=1e-300"], "leg_scale"), (["leg_scale=3"], "leg_scale"),
+    (["roughness_seed_offset=99999999999999"], "roughness_seed_offset"),
+])
+def test_settings_that_would_hang_or_overflow_are_config_errors(settings, fragment):
+    with pytest.raises(ConfigError, match=fragment):
+        apply_overrides(LocomotionConfig, settings)
+
+
+def test_every_setting_has_a_documented_range_or_choices():
+    import dataclasses
+
+    for f in dataclasses.fields(LocomotionConfig):
+        meta = f.metadata
+        assert meta.get("help"), f.name
+        if isinstance(f.default, bool):
+            continue
+        if isinstance(f.default, str):
+            assert meta.get("choices"), f.name
+        else:
+            assert ("min" in meta or "min_exclusive" in meta) and "max" in meta, f.name
+    # the extremes of the ranges still run (the longest trial is bounded by MAX_PHYSICS_STEPS)
+    longest = apply_overrides(LocomotionConfig, ["timestep_s=0.0006", "control_dt_s=0.0594", "duration_s=600"])
+    assert round(longest.duration_s / longest.timestep_s) == 1_000_000
+
+
+@pytest.mark.parametrize("setting", ["gait=gallop", "terrain=ice", "adhesion_n=-5", "control_dt_s=0.007",
+                                     "timestep_s=1e-300"])
 def test_cli_bad_settings_exit_2_with_one_line(tmp_path, capsys, setting):
     pytest.importorskip("mujoco")
     code = main(["run", "locomotion", "--backend", "mujoco", "--set", setting, "--set", "duration_s=0.1",
