@@ -173,3 +173,34 @@ def test_interrupted_sweep_assembly_is_finished_by_a_rerun(tmp_path, monkeypatch
     summary = json.loads((out / "summary.json").read_text())
     assert summary["total_trials"] == 4 and summary["resumed_trials"] == 4
     assert (out / "sweep_metrics.png").exists()
+
+
+def test_a_killed_run_on_a_dask_cluster_leaves_the_folder_free_and_resumes(tmp_path, capsys):
+    """Dask workers are not children of the run: they never hold its lock, and a rerun at once resumes."""
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / "out"
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  protocol="tcp", dashboard_address=None) as cluster:
+        args = ["run", "path-integration", "--trials", "6", "--chunk-size", "1", *LONG, "--no-figures",
+                "--scheduler", cluster.scheduler_address, "--out", str(out)]
+        process = subprocess.Popen([NEURONAV, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        try:
+            deadline = time.monotonic() + 120
+            while not list(out.glob("parts/trials-*.npz")) and process.poll() is None:
+                assert time.monotonic() < deadline, "the run wrote no parts"
+                time.sleep(0.01)
+            assert process.poll() is None, process.stderr.read().decode()
+            os.kill(process.pid, signal.SIGKILL)
+            process.wait(timeout=30)
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+            process.stderr.close()
+        done = len(list(out.glob("parts/trials-*.npz")))
+        assert 1 <= done < 6
+        assert main(args) == 0
+    captured = capsys.readouterr()
+    assert "in use" not in captured.err and f"{done} already done" in captured.out
+    rows = rows_of(out / "trials.csv")
+    assert [int(r["trial"]) for r in rows] == list(range(6)) and {r["status"] for r in rows} == {"ok"}

@@ -344,3 +344,27 @@ def test_no_module_of_the_run_stack_imports_one_above_it():
         imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
         above = {f"neuronav.{m}" for m in order[:i]}
         assert not imported & above, (module, imported & above)
+
+
+def test_a_run_that_cannot_fit_in_memory_is_refused_before_it_starts(tmp_path):
+    class Hungry(Flaky):
+        def estimate_bytes(self, config, trials):
+            return trials * 2**40  # a TiB per trial
+
+    with pytest.raises(ConfigError, match=r"4 trials in chunks of 4 need about 4096.0 GiB at once.*--chunk-size"):
+        execute(Hungry(), trials=4, workers=1, out_dir=tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(ConfigError, match="trials must be at most 1000000 per run of 'flaky', got 1000001"):
+        execute(Flaky(), trials=1_000_001, out_dir=tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_scenarios_check_runs_for_every_grid_point_before_anything_is_written(tmp_path):
+    class Picky(Flaky):
+        def check(self, config, backend):
+            if config.raise_seed == 7:
+                raise ConfigError("raise_seed=7 cannot run on kinematic")
+
+    with pytest.raises(ConfigError, match="raise_seed=7 cannot run"):
+        run_sweep(Picky(), {"raise_seed": [1, 7]}, trials=2, out_dir=tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
