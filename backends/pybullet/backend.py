@@ -63,52 +63,29 @@ Design
   camera (nearest-neighbour lookup). ``"follow"`` renders :func:`neuronav.articulated.follow_view`.
 
 Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
-framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to PyBullet.
+framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to PyBullet,
+with :mod:`backends.pybullet.scene` (ground, objects), :mod:`backends.pybullet.camera` (rendering),
+:mod:`backends.pybullet.urdf` (the body) and :mod:`backends.pybullet.engine` (the import, C output).
 """
 
 from __future__ import annotations
 
 import math
 import os
-import struct
-import sys
 import tempfile
-import zlib
 from collections.abc import Sequence
 
 import numpy as np
 
+from backends.pybullet.camera import SphericalLookup, render_camera, render_view
+from backends.pybullet.engine import EngineOutput, pb
+from backends.pybullet.scene import build_ground, build_object, check_object
 from backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.articulated import ArticulatedBackend, FollowView
 from neuronav.backend import quat_product
-from neuronav.body import BodySpec, Camera, quat_to_matrix
+from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
-from neuronav.world import World, WorldObject
-
-
-def _import_quietly():
-    """Import pybullet without the build-time banner it prints from C at import."""
-    import ctypes
-    import sys
-
-    sys.stdout.flush()
-    sys.stderr.flush()
-    saved = [os.dup(1), os.dup(2)]
-    try:
-        with open(os.devnull, "wb") as devnull:
-            os.dup2(devnull.fileno(), 1)
-            os.dup2(devnull.fileno(), 2)
-            import pybullet  # an ImportError is an exception, not a message: nothing is lost
-
-            ctypes.CDLL(None).fflush(None)  # empty C's buffers while they still point at /dev/null
-    finally:
-        for fd, copy in zip((1, 2), saved):
-            os.dup2(copy, fd)
-            os.close(copy)
-    return pybullet
-
-
-pb = _import_quietly()
+from neuronav.world import World
 
 GRAVITY_M_S2 = -9.81
 SAFE_MARGIN = 0.7  # keep explicit joint control this far inside its stability limit (1)
@@ -122,25 +99,6 @@ TOUCH_DISTANCE_M = 1e-3  # a contact point this close (or penetrating) counts as
 # millimetres, as on MuJoCo; without it every pad lets go at once when the legs change over.
 PAD_STIFFNESS_N_M = 1.2e4
 PAD_DAMPING_N_S_M = 500.0
-NEAR_M, FAR_M = 0.005, 200.0
-EYE_NUDGE_M = np.array([3.1e-7, 1.7e-7, 0.0])
-GROUND_RGBA = (0.76, 0.68, 0.52, 1.0)
-# The floor's checker: two sand colours like MuJoCo's, CHECKER_M squares in the texture over the ground's size.
-CHECKER_RGB = ((219, 194, 143), (168, 145, 102))
-CHECKER_M = 0.5
-WALL_THICKNESS_M = 0.2
-CONE_SIDES = 32
-
-# Cube-map faces in the camera frame (x right, y up, looking along -z): (forward, image up).
-_CUBE_FACES = (
-    ((0.0, 0.0, -1.0), (0.0, 1.0, 0.0)),
-    ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
-    ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
-    ((-1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
-    ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
-    ((0.0, -1.0, 0.0), (0.0, 0.0, -1.0)),
-)
-
 
 def _xyzw(quat_wxyz) -> list[float]:
     w, x, y, z = quat_wxyz
@@ -156,49 +114,6 @@ def _matrix_to_xyzw(r: np.ndarray) -> list[float]:
     from scipy.spatial.transform import Rotation
 
     return [float(v) for v in Rotation.from_matrix(r).as_quat()]
-
-
-def _projection(fov_v_rad: float, aspect: float) -> list[float]:
-    """OpenGL projection matrix (column-major, as PyBullet wants it)."""
-    f = 1.0 / math.tan(fov_v_rad / 2.0)
-    a, b = -(FAR_M + NEAR_M) / (FAR_M - NEAR_M), -2.0 * FAR_M * NEAR_M / (FAR_M - NEAR_M)
-    return [f / aspect, 0.0, 0.0, 0.0, 0.0, f, 0.0, 0.0, 0.0, 0.0, a, -1.0, 0.0, 0.0, b, 0.0]
-
-
-class _SphericalLookup:
-    """Which cube face and pixel each output pixel of an equirectangular camera samples."""
-
-    def __init__(self, camera: Camera) -> None:
-        fov_h, fov_v = camera.fov_rad
-        if not (0 < fov_h <= 2 * np.pi and 0 < fov_v <= np.pi):
-            raise ConfigError(f"camera {camera.name!r}: a spherical camera needs 0 < fov_h <= 2π and "
-                              f"0 < fov_v <= π, got {camera.fov_rad}")
-        w, h = camera.width_px, camera.height_px
-        azimuth = ((np.arange(w) + 0.5) / w - 0.5) * fov_h
-        elevation = (0.5 - (np.arange(h) + 0.5) / h) * fov_v
-        az, el = np.meshgrid(azimuth, elevation)
-        directions = np.stack([np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)], axis=-1)
-        forwards = np.array([f for f, _ in _CUBE_FACES])
-        face = np.argmax(directions @ forwards.T, axis=-1)
-        # Face resolution: about the output's angular resolution, at least 8 px.
-        step_rad = min(fov_h / w, fov_v / h)
-        self.size_px = int(np.clip(math.ceil((np.pi / 2) / step_rad), 8, 512))
-        self.row = np.empty((h, w), int)
-        self.col = np.empty((h, w), int)
-        for k, (forward, up) in enumerate(_CUBE_FACES):
-            mask = face == k
-            if not mask.any():
-                continue
-            forward, up = np.array(forward), np.array(up)
-            right = np.cross(forward, up)
-            d = directions[mask]
-            depth = d @ forward
-            x, y = (d @ right) / depth, (d @ up) / depth
-            n = self.size_px
-            self.col[mask] = np.clip(((x + 1.0) / 2.0 * n).astype(int), 0, n - 1)
-            self.row[mask] = np.clip(((1.0 - y) / 2.0 * n).astype(int), 0, n - 1)
-        self.face = face
-        self.faces_used = sorted(int(k) for k in np.unique(face))
 
 
 class PybulletBackend(ArticulatedBackend):
@@ -272,7 +187,7 @@ class PybulletBackend(ArticulatedBackend):
     def _load_engine(self, world: World, body: BodySpec) -> None:
         # Everything that can reject the input comes before any state changes.
         for obj in world.objects:
-            _check_object(obj)
+            check_object(obj)
         urdf = body_to_urdf(body, armature_as_inertia=self._armature_as_inertia)
         for site in body.sites:
             if site.kind == "contact" and site.geom:
@@ -281,7 +196,7 @@ class PybulletBackend(ArticulatedBackend):
             if camera.projection == "planar" and not 0 < camera.fov_rad[1] < np.pi:
                 raise ConfigError(f"camera {camera.name!r}: a planar camera needs 0 < vertical fov < π, "
                                   f"got {camera.fov_rad[1]}")
-        spherical = {c.name: _SphericalLookup(c) for c in body.cameras if c.projection == "spherical"}
+        spherical = {c.name: SphericalLookup(c) for c in body.cameras if c.projection == "spherical"}
         self.body, self.world, self._urdf, self._spherical = body, world, urdf, spherical
         if self._tmpdir is None:
             self._tmpdir = tempfile.TemporaryDirectory(prefix="neuronav_pybullet_")
@@ -391,16 +306,7 @@ class PybulletBackend(ArticulatedBackend):
         pos, rot = self._frames([link])[link]
         eye = pos + rot @ np.asarray(spec.pos_m, float)
         cam_rot = rot @ quat_to_matrix(spec.quat)
-        if spec.projection == "planar":
-            return self._render_view(eye, cam_rot @ np.array([0.0, 0.0, -1.0]), cam_rot @ np.array([0.0, 1.0, 0.0]),
-                                     spec.width_px, spec.height_px, spec.fov_rad[1])
-        lookup = self._spherical[camera]
-        faces = np.zeros((len(_CUBE_FACES), lookup.size_px, lookup.size_px, 3), np.uint8)
-        for k in lookup.faces_used:
-            forward, up = (np.array(v) for v in _CUBE_FACES[k])
-            faces[k] = self._render_view(eye, cam_rot @ forward, cam_rot @ up, lookup.size_px, lookup.size_px,
-                                         np.pi / 2)
-        return faces[lookup.face, lookup.row, lookup.col]
+        return render_camera(self._client, spec, eye, cam_rot, self._spherical.get(camera))
 
     def model_summary(self) -> dict:
         """What PyBullet built, read back from the engine: for comparing backends on one spec.
@@ -472,7 +378,7 @@ class PybulletBackend(ArticulatedBackend):
                                      deterministicOverlappingPairs=1, physicsClientId=cid)
         pb.setRealTimeSimulation(0, physicsClientId=cid)
         flags = pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER
-        with _EngineOutput(self.warnings):
+        with EngineOutput(self.warnings):
             self._robot = pb.loadURDF(self._urdf_path, useFixedBase=self._urdf.fixed_base, flags=flags,
                                       physicsClientId=cid)
         self._index_links()
@@ -487,9 +393,9 @@ class PybulletBackend(ArticulatedBackend):
         if movable:
             pb.setJointMotorControlArray(self._robot, movable, pb.VELOCITY_CONTROL, forces=[0.0] * len(movable),
                                          physicsClientId=cid)
-        self._build_ground()
+        build_ground(cid, self.world, self._tmpdir.name)
         for obj in self.world.objects:
-            self._build_object(obj)
+            build_object(cid, self.world, obj)
 
     def _index_links(self) -> None:
         cid, robot = self._client, self._robot
@@ -517,87 +423,6 @@ class PybulletBackend(ArticulatedBackend):
                 link = self._urdf.link(self._urdf.segment_link[site.segment])
                 point = np.asarray(site.pos_m, float)
             self._contact_links.append((self._link_index[link.name], point))
-
-    def _build_ground(self) -> None:
-        cid = self._client
-        ground = self.world.ground
-        half = ground.size_m / 2.0
-        plane = pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid)
-        heights = ground.heights_m()
-        if heights.max() > heights.min():
-            spacing = ground.size_m / (ground.cells - 1)
-            field = pb.createCollisionShape(
-                pb.GEOM_HEIGHTFIELD, meshScale=[spacing, spacing, 1.0], heightfieldData=heights.ravel().tolist(),
-                numHeightfieldRows=ground.cells, numHeightfieldColumns=ground.cells, physicsClientId=cid)
-            # PyBullet centres the field at the midpoint of its extreme heights: lift it back.
-            lift = (heights.max() + heights.min()) / 2.0
-            terrain = pb.createMultiBody(0.0, field, -1, [0.0, 0.0, lift], physicsClientId=cid)
-            pb.changeVisualShape(terrain, -1, rgbaColor=list(GROUND_RGBA), textureUniqueId=-1, physicsClientId=cid)
-            self._set_friction(terrain)
-            top = -2e-3  # the plane's look hides under the field (without a look TinyRenderer draws a checker)
-        else:
-            top = 0.0
-        visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.005],
-                                      visualFramePosition=[0.0, 0.0, top - 0.005], rgbaColor=[1.0, 1.0, 1.0, 1.0],
-                                      physicsClientId=cid)
-        floor = pb.createMultiBody(0.0, plane, visual, [0.0, 0.0, 0.0], physicsClientId=cid)
-        pb.changeVisualShape(floor, -1, textureUniqueId=self._checker_texture(ground.size_m), physicsClientId=cid)
-        self._set_friction(floor)
-        if ground.kind == "wall":
-            extents = [WALL_THICKNESS_M / 2.0, half, ground.wall_height_m / 2.0]
-            shape = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=extents, physicsClientId=cid)
-            look = pb.createVisualShape(pb.GEOM_BOX, halfExtents=extents, rgbaColor=[0.6, 0.6, 0.65, 1.0],
-                                        physicsClientId=cid)
-            wall = pb.createMultiBody(0.0, shape, look, [ground.wall_distance_m + WALL_THICKNESS_M / 2.0, 0.0,
-                                                         ground.wall_height_m / 2.0], physicsClientId=cid)
-            self._set_friction(wall)
-
-    def _checker_texture(self, size_m: float) -> int:
-        """A checker of ``CHECKER_M`` squares over ``size_m`` (a PNG in the temporary folder)."""
-        squares = max(1, int(round(size_m / CHECKER_M)))
-        path = os.path.join(self._tmpdir.name, f"checker_{squares}.png")
-        if not os.path.exists(path):
-            pixels = 8  # per square: TinyRenderer samples the nearest texel
-            parity = (np.add.outer(np.arange(squares * pixels) // pixels, np.arange(squares * pixels) // pixels)) % 2
-            image = np.where(parity[..., None] == 0, CHECKER_RGB[0], CHECKER_RGB[1]).astype(np.uint8)
-            with open(path, "wb") as handle:
-                handle.write(_png(image))
-        return pb.loadTexture(path, physicsClientId=self._client)
-
-    def _build_object(self, obj: WorldObject) -> None:
-        cid = self._client
-        rgba = list(obj.rgba)
-        if obj.shape == "box":
-            kwargs = {"shapeType": pb.GEOM_BOX, "halfExtents": list(obj.size_m)}
-            shape = pb.createCollisionShape(**kwargs, physicsClientId=cid)
-            look = pb.createVisualShape(**kwargs, rgbaColor=rgba, physicsClientId=cid)
-        elif obj.shape == "sphere":
-            shape = pb.createCollisionShape(pb.GEOM_SPHERE, radius=obj.size_m[0], physicsClientId=cid)
-            look = pb.createVisualShape(pb.GEOM_SPHERE, radius=obj.size_m[0], rgbaColor=rgba, physicsClientId=cid)
-        elif obj.shape == "cylinder":
-            radius, half = obj.size_m
-            shape = pb.createCollisionShape(pb.GEOM_CYLINDER, radius=radius, height=2 * half, physicsClientId=cid)
-            look = pb.createVisualShape(pb.GEOM_CYLINDER, radius=radius, length=2 * half, rgbaColor=rgba,
-                                        physicsClientId=cid)
-        else:  # cone: a many-sided pyramid, base at -half, apex at +half
-            radius, half = obj.size_m
-            angles = np.linspace(0.0, 2 * np.pi, CONE_SIDES, endpoint=False)
-            ring = [[radius * math.cos(a), radius * math.sin(a), -half] for a in angles]
-            vertices = [*ring, [0.0, 0.0, half], [0.0, 0.0, -half]]
-            apex, centre = CONE_SIDES, CONE_SIDES + 1
-            indices = []
-            for k in range(CONE_SIDES):
-                nxt = (k + 1) % CONE_SIDES
-                indices += [k, nxt, apex, nxt, k, centre]
-            shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, physicsClientId=cid)
-            look = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=rgba,
-                                        physicsClientId=cid)
-        handle = pb.createMultiBody(0.0, shape, look, list(obj.position_m), physicsClientId=cid)
-        self._set_friction(handle)
-
-    def _set_friction(self, handle: int) -> None:
-        pb.changeDynamics(handle, -1, lateralFriction=self.world.ground.friction, restitution=0.0,
-                          physicsClientId=self._client)
 
     def _stability_margin(self, step_s: float) -> tuple[float, list[str]]:
         """Stability margin of explicit joint control at ``step_s`` (>= 1: unstable) and the joints involved.
@@ -787,38 +612,15 @@ class PybulletBackend(ArticulatedBackend):
         self.warnings.append(message)
         raise SimulationError(message)
 
-    # -- rendering ---------------------------------------------------------------------------------
-    def _render_view(self, eye, forward, up, width: int, height: int, fov_v_rad: float) -> np.ndarray:
-        # TinyRenderer takes seconds for an eye exactly on a heightfield grid line with an axis-aligned
-        # view (e.g. a forward camera after the default reset); a sub-micrometre shift avoids that.
-        eye = np.asarray(eye, float) + EYE_NUDGE_M
-        view = pb.computeViewMatrix(list(map(float, eye)), list(map(float, np.asarray(eye) + forward)),
-                                    list(map(float, up)), physicsClientId=self._client)
-        _, _, rgb, _, _ = pb.getCameraImage(int(width), int(height), view, _projection(fov_v_rad, width / height),
-                                            shadow=0, renderer=pb.ER_TINY_RENDERER,
-                                            flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=self._client)
-        return np.asarray(rgb, np.uint8).reshape(int(height), int(width), 4)[:, :, :3].copy()
-
     def _render_follow(self, view: FollowView) -> np.ndarray:
         width, height = view.size_px
-        return self._render_view(view.eye, (view.target - view.eye) / view.distance_m, view.up, width, height,
-                                 np.radians(view.fov_deg))
+        return render_view(self._client, view.eye, (view.target - view.eye) / view.distance_m, view.up, width,
+                           height, np.radians(view.fov_deg))
 
     def _require(self) -> BodySpec:
         if self.body is None or self._client is None:
             raise SimulationError("pybullet backend: call load(world, [body_spec]) first (or it was closed)")
         return self.body
-
-
-def _png(image: np.ndarray) -> bytes:
-    """An RGB uint8 image (H, W, 3) as PNG bytes (no imaging library needed)."""
-    def chunk(tag: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
-
-    height, width = image.shape[:2]
-    rows = b"".join(b"\x00" + row.tobytes() for row in np.ascontiguousarray(image, np.uint8))
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
 
 
 def _geom_reach(geom, axes: np.ndarray) -> np.ndarray:
@@ -834,41 +636,3 @@ def _geom_reach(geom, axes: np.ndarray) -> np.ndarray:
     return along + radius * np.sqrt(np.clip(1.0 - axes[:, 2] ** 2, 0.0, 1.0))
 
 
-class _EngineOutput:
-    """Collect what PyBullet's C code prints (``b3Warning`` ...) during a call into a warnings list."""
-
-    def __init__(self, warnings: list[str]) -> None:
-        self._warnings = warnings
-
-    def __enter__(self):
-        sys.stdout.flush()
-        sys.stderr.flush()
-        self._file = tempfile.TemporaryFile(mode="w+b")
-        self._saved = [os.dup(1), os.dup(2)]
-        os.dup2(self._file.fileno(), 1)
-        os.dup2(self._file.fileno(), 2)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        os.dup2(self._saved[0], 1)
-        os.dup2(self._saved[1], 2)
-        for fd in self._saved:
-            os.close(fd)
-        self._file.seek(0)
-        text = self._file.read().decode(errors="replace")
-        self._file.close()
-        lines = [line.strip() for line in text.splitlines() if line.strip()]
-        # b3Warning lines name the source file; the message is on the next line.
-        messages = [f"pybullet: {line}" for line in lines if not line.startswith("b3Warning[")]
-        for message in messages:
-            if message not in self._warnings:
-                self._warnings.append(message)
-
-
-def _check_object(obj: WorldObject) -> None:
-    expected = {"box": 3, "sphere": 1, "cylinder": 2, "cone": 2}[obj.shape]
-    size = tuple(obj.size_m)
-    if len(size) != expected or not all(np.isfinite(s) and s > 0 for s in size):
-        raise ConfigError(f"world object {obj.shape}: size_m needs {expected} positive numbers, got {size}")
-    if len(obj.position_m) != 3 or not np.isfinite(obj.position_m).all():
-        raise ConfigError(f"world object {obj.shape}: position_m must be 3 finite numbers, got {obj.position_m}")
