@@ -2,7 +2,9 @@
 
 A field's ``metadata`` may hold ``help`` (a short description), ``min``/``max`` (inclusive bounds),
 ``min_exclusive``, ``max_exclusive`` and ``choices``. :func:`apply_overrides` turns ``key=value``
-strings (the CLI's ``--set``) into a validated config; :func:`load_config_file` reads the same keys
+strings (the CLI's ``--set``) into a validated config; a config class may define ``cross_check(self)``,
+called by :func:`validate` once every field is valid, for rules between fields (raising
+:class:`ConfigError`); :func:`load_config_file` reads the same keys
 from a TOML file (``--config``); :func:`build_config` layers defaults, a file, ``--set`` and a grid
 point; :func:`validate` checks a config built in Python.
 """
@@ -105,6 +107,9 @@ def validate(config: Any) -> Any:
             raise ConfigError(f"key {f.name!r} must be <= {meta['max']}, got {value!r}")
         if "max_exclusive" in meta and value >= meta["max_exclusive"]:
             raise ConfigError(f"key {f.name!r} must be < {meta['max_exclusive']}, got {value!r}")
+    cross_check = getattr(config, "cross_check", None)
+    if callable(cross_check):  # rules between fields, once every field is valid on its own
+        cross_check()
     return config
 
 
@@ -210,6 +215,29 @@ def _reason(error: BaseException) -> str:
     return text[0] if text else type(error).__name__
 
 
+def limits_text(f: dataclasses.Field) -> str:
+    """A field's valid values in words, e.g. ``0 <= x <= 1``, ``> 0`` or ``one of: a, b``; ``""`` if any."""
+    meta = f.metadata
+    if "choices" in meta:
+        return "one of: " + ", ".join(map(str, meta["choices"]))
+    low = (f"{meta['min']:g} <= " if "min" in meta else f"{meta['min_exclusive']:g} < " if "min_exclusive" in meta
+           else "")
+    high = (f" <= {meta['max']:g}" if "max" in meta else f" < {meta['max_exclusive']:g}" if "max_exclusive" in meta
+            else "")
+    if not low and not high:
+        return ""
+    if low and high:
+        return f"{low}x{high}"
+    return f">= {meta['min']:g}" if "min" in meta else f"> {meta['min_exclusive']:g}" if low else high.strip()
+
+
 def describe(config_type: type) -> list[tuple[str, Any, str]]:
-    """(key, default, help) for every field, for ``neuronav list`` and documentation."""
-    return [(f.name, f.default, f.metadata.get("help", "")) for f in _fields(config_type).values()]
+    """(key, default, help) for every field, for ``neuronav list`` and documentation.
+
+    The help ends with the field's valid values in brackets (:func:`limits_text`) when it has limits.
+    """
+    rows = []
+    for f in _fields(config_type).values():
+        text, limits = f.metadata.get("help", ""), limits_text(f)
+        rows.append((f.name, f.default, f"{text} [{limits}]" if limits else text))
+    return rows

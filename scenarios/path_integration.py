@@ -38,22 +38,26 @@ class PathIntegrationConfig:
     outbound_steps: int = field(1500, "steps of the random outbound route", min=1, max=100_000)
     inbound_steps: int = field(1500, "steps of CX-driven homing", min=1, max=100_000)
     success_radius: float = field(20.0, "success: homing comes this close to the nest (distance units)",
-                                  min_exclusive=0.0)
-    kappa: float = field(100.0, "von Mises concentration of the outbound turns", min_exclusive=0.0)
+                                  min_exclusive=0.0, max=10_000.0)
+    kappa: float = field(100.0, "von Mises concentration of the outbound turns", min_exclusive=0.0, max=1e6)
     turn_smoothing: float = field(0.4, "outbound turns are low-pass filtered: y_t = x_t + a*y_(t-1)",
                                   min=0.0, max_exclusive=1.0)
-    min_acceleration: float = field(0.0, "outbound acceleration, lower bound", min=0.0)
-    max_acceleration: float = field(0.15, "outbound acceleration, upper bound", min=0.0)
-    inbound_acceleration: float = field(0.1, "acceleration while homing", min=0.0)
+    # Accelerations in distance units per step²: at drag d the speed settles at a (1 - d) / d, 0.85 for
+    # Stone's 0.15 and 0.15; 1 allows 5.7 units per step, far beyond what the TN cells encode.
+    min_acceleration: float = field(0.0, "outbound acceleration, lower bound (<= max_acceleration)", min=0.0, max=1.0)
+    max_acceleration: float = field(0.15, "outbound acceleration, upper bound", min=0.0, max=1.0)
+    inbound_acceleration: float = field(0.1, "acceleration while homing", min=0.0, max=1.0)
     drag: float = field(0.15, "fraction of the velocity lost per step", min=0.0, max_exclusive=1.0)
-    memory_gain: float = field(0.0025, "CPU4 integration gain h per step", min_exclusive=0.0)
-    memory_leak: float = field(0.125, "CPU4 leak factor k (memory loses h*k per step)", min=0.0)
+    # The CPU4 memory lives in [0, 1]: a gain of 1 fills it in one step of full drive.
+    memory_gain: float = field(0.0025, "CPU4 integration gain h per step", min_exclusive=0.0, max=1.0)
+    memory_leak: float = field(0.125, "CPU4 leak factor k (memory loses h*k per step)", min=0.0, max=1.0)
     dtype: str = field("float32", "arithmetic of the CX (float32 is faster; float64 for reference runs)",
                        choices=("float32", "float64"))
     noise_method: str = field("table", "CX noise sampler: 'table' (16-bit normal quantiles, faster) or "
                               "'gaussian' (numpy's exact sampler)", choices=("table", "gaussian"))
-    record_every: int = field(5, "record positions and neural activity every k steps", min=1)
-    record_trials: int = field(20, "trials whose neural activity is recorded", min=0)
+    record_every: int = field(5, "record positions and neural activity every k steps "
+                              "(<= outbound_steps + inbound_steps)", min=1, max=200_000)
+    record_trials: int = field(20, "trials whose neural activity is recorded", min=0, max=10_000)
     protocol: str = field("auto", "stone2017 (point agents, steps) or i2bot (a body walked by a gait, metres "
                           "and seconds); auto: stone2017 on kinematic, i2bot on physics backends",
                           choices=("auto", "stone2017", "i2bot"))
@@ -61,17 +65,25 @@ class PathIntegrationConfig:
     homing_timeout_s: float = field(90.0, "i2bot: homing gives up after this long (s)", min_exclusive=0.0,
                                     max=3600.0)
     nest_radius_m: float = field(0.67, "i2bot: success when the body comes this close to the nest (m)",
-                                 min_exclusive=0.0)
-    k_pi: float = field(5.0, "i2bot: turn = k_PI (sum CPU1 left - sum CPU1 right) (eq. 3.6)", min_exclusive=0.0)
+                                 min_exclusive=0.0, max=100.0)
+    k_pi: float = field(5.0, "i2bot: turn = k_PI (sum CPU1 left - sum CPU1 right) (eq. 3.6)", min_exclusive=0.0,
+                        max=1000.0)
     embodied_noise: float = field(0.0008, "i2bot: CX rate noise (the paper's code)", min=0.0, max=1.0)
     embodied_memory_gain: float = field(0.04, "i2bot: CPU4 gain per gait cycle (the paper's code)",
-                                        min_exclusive=0.0)
+                                        min_exclusive=0.0, max=1.0)
     velocity_input: str = field("pose", "i2bot: velocity fed to the CX: displacement per gait cycle (pose) or "
                                 "the instantaneous velocity sensor (measured)", choices=("pose", "measured"))
-    foraging_turn_std: float = field(0.35, "i2bot: std of the random turn command per gait cycle", min=0.0)
+    foraging_turn_std: float = field(0.35, "i2bot: std of the random turn command per gait cycle "
+                                     "(the command is clipped to [-1, 1])", min=0.0, max=10.0)
     foraging_stride_deg: float = field(15.0, "i2bot: hip swing while foraging (deg)", min=0.0, max=40.0)
     embodied_timestep_s: float = field(0.002, "i2bot: physics step of the body (s)", min_exclusive=0.0,
                                        max=0.008)
+
+    def cross_check(self) -> None:
+        """Rules between settings that hold on every backend (called by :func:`neuronav.config.validate`)."""
+        if self.min_acceleration > self.max_acceleration:
+            raise ConfigError(f"min_acceleration ({self.min_acceleration:g}) must be <= max_acceleration "
+                              f"({self.max_acceleration:g})")
 
 
 class PathIntegration(Scenario):
@@ -95,6 +107,32 @@ class PathIntegration(Scenario):
             return config.protocol
         return "stone2017" if backend == "kinematic" else "i2bot"
 
+    def check(self, config: PathIntegrationConfig, backend: str) -> None:
+        """Refuse, before any trial, settings that cannot run on ``backend``.
+
+        ``protocol=stone2017`` moves point agents: kinematic backend only; its recording needs
+        ``record_every <= outbound_steps + inbound_steps``. The i2bot protocol's rules are
+        :func:`scenarios.embodied_homing.check_embodied`'s.
+
+        Raises
+        ------
+        ConfigError
+            Naming the setting, the backend and what is allowed.
+        """
+        protocol = self.protocol(config, backend)
+        if protocol == "i2bot":
+            from scenarios.embodied_homing import check_embodied
+
+            check_embodied(config, backend)
+            return
+        if backend != "kinematic":
+            raise ConfigError(f"the stone2017 protocol moves point agents: it runs on the kinematic backend only, "
+                              f"not {backend!r} (use protocol=i2bot or auto)")
+        steps = config.outbound_steps + config.inbound_steps
+        if config.record_every > steps:
+            raise ConfigError(f"record_every={config.record_every} records nothing: a trial has only "
+                              f"outbound_steps + inbound_steps = {steps} steps")
+
     def aggregate(self, trials: list[dict], config: PathIntegrationConfig) -> dict:
         """Stone's tortuosity τ = 1 / (1 − mean μ) over all finished trials (stone2017 protocol)."""
         mus = np.array([t.get("tortuosity_mu", np.nan) for t in trials if t.get("status", "ok") == "ok"], float)
@@ -107,18 +145,6 @@ class PathIntegration(Scenario):
     def compare_overrides(self, backends: list[str]) -> dict:
         """Comparing a physics body with the kinematic one only makes sense under one protocol."""
         return {"protocol": "i2bot"} if any(b != "kinematic" for b in backends) else {}
-
-    # -- begin: Scenario.check hook (added by the run-orchestration work, issue 9) --
-    def check(self, config: PathIntegrationConfig, backend: str) -> None:
-        """Settings that cannot run on ``backend`` fail before the first trial (exit 2), not per trial."""
-        if self.protocol(config, backend) == "stone2017" and backend != "kinematic":
-            raise ConfigError(f"the stone2017 protocol moves point agents: it runs on the kinematic backend, "
-                              f"not {backend!r} (use protocol=i2bot)")
-        if self.protocol(config, backend) == "i2bot":  # physics steps bounded (the embodied module's rules)
-            from scenarios.embodied_homing import check_embodied
-
-            check_embodied(config, backend)
-    # -- end: Scenario.check hook --
 
     # -- running -------------------------------------------------------------------------------
     def run(self, config: PathIntegrationConfig, *, backend: str, trials: int, seed: int,

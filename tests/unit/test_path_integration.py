@@ -86,3 +86,83 @@ def test_fig7_statistics_script_counts_misses_per_sample(capsys):
     with pytest.raises(SystemExit) as bad:
         fig7_statistics(["--runs", "1", "--set", "noise=abc"])
     assert bad.value.code == 2 and "noise" in capsys.readouterr().err
+
+
+# -- settings: ranges, cross-field rules, backend checks ----------------------------------------------
+@pytest.mark.parametrize("key", ["max_acceleration", "inbound_acceleration", "memory_gain", "min_acceleration",
+                                 "memory_leak", "record_every", "success_radius"])
+def test_huge_values_are_refused_before_any_trial(key):
+    from neuronav.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=f"key '{key}' must be <="):
+        apply_overrides(PathIntegrationConfig, [f"{key}={'1000000000' if key == 'record_every' else '1e308'}"])
+
+
+def test_min_acceleration_above_max_is_refused():
+    from neuronav.errors import ConfigError
+
+    with pytest.raises(ConfigError, match=r"min_acceleration \(0.2\) must be <= max_acceleration \(0.1\)"):
+        apply_overrides(PathIntegrationConfig, ["min_acceleration=0.2", "max_acceleration=0.1"])
+    apply_overrides(PathIntegrationConfig, ["min_acceleration=0.1", "max_acceleration=0.1"])
+
+
+def test_every_setting_shows_its_valid_values():
+    from neuronav.config import describe
+
+    rows = {key: text for key, _, text in describe(PathIntegrationConfig)}
+    assert rows["noise"].endswith("[0 <= x <= 1]")
+    assert rows["memory_gain"].endswith("[0 < x <= 1]")
+    assert rows["dtype"].endswith("[one of: float32, float64]")
+    assert all(text.endswith("]") for text in rows.values()), [k for k, t in rows.items() if not t.endswith("]")]
+
+
+def test_check_refuses_what_cannot_run_on_the_backend():
+    from neuronav.errors import ConfigError
+
+    scenario = load_scenario("path-integration")
+    stone = apply_overrides(PathIntegrationConfig, {"protocol": "stone2017"})
+    scenario.check(stone, "kinematic")
+    with pytest.raises(ConfigError, match="stone2017 protocol moves point agents.*not 'mujoco'"):
+        scenario.check(stone, "mujoco")
+    short = apply_overrides(PathIntegrationConfig, {"outbound_steps": 100, "inbound_steps": 50, "record_every": 151})
+    with pytest.raises(ConfigError, match="record_every=151 records nothing.*150 steps"):
+        scenario.check(short, "kinematic")
+    scenario.check(apply_overrides(PathIntegrationConfig, {"protocol": "i2bot", "record_every": 10**5}), "kinematic")
+
+
+def test_cli_refuses_bad_settings_with_exit_2_and_one_line(tmp_path, capsys):
+    from neuronav.cli import main
+
+    for settings in (["max_acceleration=1e308"], ["min_acceleration=0.3", "max_acceleration=0.2"],
+                     ["outbound_steps=10", "inbound_steps=10", "record_every=21"]):
+        out = tmp_path / "_".join(settings).replace("=", "-")
+        code = main(["run", "path-integration", "--trials", "2", "--out", str(out), "--no-progress",
+                     *(a for s in settings for a in ("--set", s))])
+        err = capsys.readouterr().err.strip()
+        assert code == 2 and len(err.splitlines()) == 1, (settings, err)
+        assert not (out / "trials.csv").exists()
+
+
+def test_largest_record_every_still_records_and_draws(tmp_path, capsys):
+    from neuronav.cli import main
+
+    code = main(["run", "path-integration", "--trials", "2", "--out", str(tmp_path / "run"), "--no-progress",
+                 "--set", "outbound_steps=30", "--set", "inbound_steps=30", "--set", "record_every=60"])
+    assert code == 0, capsys.readouterr().err
+    assert list((tmp_path / "run").glob("*.png"))
+
+
+@pytest.mark.parametrize("velocity_input", ["pose", "measured"])
+def test_velocity_input_chooses_what_the_embodied_cx_is_fed(velocity_input):
+    """i2bot protocol on the kinematic unicycle: ``measured`` feeds the velocity sensor itself, ``pose``
+    the displacement per gait cycle (which differs from the instantaneous velocity while turning)."""
+    result = run(1, seed=3, protocol="i2bot", outbound_s=20.0, homing_timeout_s=5.0,
+                 velocity_input=velocity_input)
+    fed, measured = result.timeseries["fed_velocity"][0], result.timeseries["measured_velocity"][0]
+    rows = np.isfinite(fed).all(axis=1) & np.isfinite(measured).all(axis=1)
+    assert rows.sum() > 20
+    matches = np.isclose(fed[rows], measured[rows], rtol=1e-9, atol=1e-12).all(axis=1)
+    if velocity_input == "measured":
+        assert matches.all()
+    else:
+        assert not matches[1:].all()
