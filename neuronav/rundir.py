@@ -322,47 +322,58 @@ def has_results(out_dir: Path) -> bool:
     return any(part_range(path.name) is not None for path in parts.rglob("trials-*.npz"))
 
 
+def _recorded_settings(out_dir: Path, settings: dict) -> dict | None:
+    """The settings recorded in ``out_dir`` when they must be kept (the folder holds finished trials of
+    them); None when the folder may take ``settings`` (none recorded, or no finished trial).
+
+    Raises :class:`ConfigError` naming the first difference when the recorded settings differ and the
+    folder holds finished trials. Writes nothing.
+    """
+    path = Path(out_dir) / SETTINGS_FILE
+    if not path.exists() or not has_results(out_dir):
+        return None  # nothing recorded, or a start that failed before its first trial: no results to keep
+    try:
+        recorded = json.loads(path.read_text())
+    except (OSError, ValueError) as error:
+        raise ConfigError(f"run directory {str(out_dir)!r}: {SETTINGS_FILE} cannot be read ({error}); "
+                          "give another --out or remove that directory") from None
+    have = _normalised({key: recorded.get(key) for key in COMPARED_SETTINGS})
+    wanted = _normalised({key: settings.get(key) for key in COMPARED_SETTINGS})
+    if have != wanted:
+        where, old, new = _first_difference(have, wanted)
+        raise ConfigError(
+            f"run directory {str(out_dir)!r} holds results with other settings ({where}: {old!r} there, "
+            f"{new!r} now); give another --out, or rerun the command that made it to resume"
+        )
+    return recorded
+
+
+def check_resumable(out_dir: Path, settings: dict) -> None:
+    """Raise :class:`ConfigError` when ``out_dir`` holds finished trials of other settings; write nothing."""
+    if Path(out_dir).is_dir():
+        _recorded_settings(out_dir, settings)
+
+
 def check_settings(out_dir: Path, settings: dict) -> bool:
     """Record ``settings`` in ``out_dir/settings.json``, or check they match the recorded ones.
 
-    Returns True when the directory already held these settings (a resumed run). Raises
-    :class:`ConfigError` naming the first difference when it held other ones and finished trials;
-    a directory with other settings but no finished trial (see :func:`has_results`) is taken over.
+    Returns True when the directory already held finished trials of these settings (a resumed run).
+    Raises :class:`ConfigError` naming the first difference when it held finished trials of other
+    ones; a directory with no finished trial (see :func:`has_results`) takes the new settings.
     """
-    path = Path(out_dir) / SETTINGS_FILE
-    wanted = _normalised({key: settings.get(key) for key in COMPARED_SETTINGS})
-    if path.exists():
-        try:
-            recorded = json.loads(path.read_text())
-        except (OSError, ValueError) as error:
-            if not has_results(out_dir):
-                write_atomic(path, json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2,
-                                              default=json_default) + "\n")
-                return False
-            raise ConfigError(f"run directory {str(out_dir)!r}: {SETTINGS_FILE} cannot be read ({error}); "
-                              "give another --out or remove that directory") from None
-        have = {key: recorded.get(key) for key in COMPARED_SETTINGS}
-        if have != wanted and not has_results(out_dir):
-            # No finished trial (a start that failed): the folder holds no results; take it over.
-            write_atomic(path, json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2,
-                                          default=json_default) + "\n")
-            return False
-        if have != wanted:
-            where, old, new = _first_difference(have, wanted)
-            raise ConfigError(
-                f"run directory {str(out_dir)!r} holds results with other settings ({where}: {old!r} there, "
-                f"{new!r} now); give another --out, or rerun the command that made it to resume"
-            )
-        versions = _normalised(settings.get("versions") or {})
-        changed = sorted(k for k in versions if recorded.get("versions", {}).get(k, versions[k]) != versions[k])
-        if changed:
-            first = changed[0]
-            sys.stderr.write(f"neuronav: warning: {str(out_dir)!r} was started with {first} "
-                             f"{recorded['versions'][first]} (now {versions[first]}); trials computed now may "
-                             "differ from the earlier ones in rounding\n")
-        return True
-    write_atomic(path, json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2, default=json_default) + "\n")
-    return False
+    recorded = _recorded_settings(out_dir, settings)
+    if recorded is None:
+        write_atomic(Path(out_dir) / SETTINGS_FILE,
+                     json.dumps({"format": SETTINGS_FORMAT, **settings}, indent=2, default=json_default) + "\n")
+        return False
+    versions = _normalised(settings.get("versions") or {})
+    changed = sorted(k for k in versions if recorded.get("versions", {}).get(k, versions[k]) != versions[k])
+    if changed:
+        first = changed[0]
+        sys.stderr.write(f"neuronav: warning: {str(out_dir)!r} was started with {first} "
+                         f"{recorded['versions'][first]} (now {versions[first]}); trials computed now may "
+                         "differ from the earlier ones in rounding\n")
+    return True
 
 
 def _first_difference(a: Any, b: Any, where: str = "") -> tuple[str, Any, Any]:

@@ -81,6 +81,7 @@ from neuronav.progress import Progress
 from neuronav.rundir import (
     DirectoryLock,
     check_out_dir,
+    check_resumable,
     check_settings,
     claim_out_dir,
     git_revision,
@@ -388,6 +389,7 @@ def plan(
         "versions": package_versions(), "git_revision": git_revision(), "command": command,
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
     }
+    check_resumable(out, settings)
     return RunPlan(instance, name, backend, trials, seed, points, out, settings, workers, scheduler, chunk_size,
                    progress, figures, video, command, is_sweep)
 

@@ -171,3 +171,15 @@ def test_compare_runs_path_integration_on_kinematic_and_mujoco(tmp_path):
         summary = json.loads((out / backend / "summary.json").read_text())
         assert summary["backend"] == backend and summary["config"]["protocol"] == "i2bot"  # one protocol for both
     assert (out / "compare.png").stat().st_size > 5000
+
+
+def test_compare_refuses_other_settings_in_any_backend_folder_before_running_the_first(tmp_path, plugin_env):
+    out = tmp_path / "cmp"
+    first = neuronav("compare", "brittle", "--backends", "mujoco", "--set", "level=1", "--out", str(out),
+                     env=plugin_env)
+    assert first.returncode == 0, first.stderr
+    again = neuronav("compare", "brittle", "--backends", "kinematic,mujoco", "--set", "level=2", "--out", str(out),
+                     env=plugin_env)
+    assert_refused(again, f"run directory {str(out / 'mujoco')!r} holds results with other settings",
+                   "config.level: 1 there, 2 now")
+    assert not (out / "kinematic").exists()

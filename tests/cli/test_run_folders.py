@@ -57,11 +57,13 @@ def test_a_folder_of_the_users_own_files_is_refused_and_untouched(users_folder, 
 
 def test_compare_checks_each_backend_folder_before_running(tmp_path):
     out = tmp_path / "cmp"
-    assert neuronav("compare", "path-integration", "--backends", "kinematic", *SHORT, "--out", str(out)).returncode == 0
+    embodied = ["--set", "protocol=i2bot", "--set", "outbound_s=1", "--set", "homing_timeout_s=1"]
+    first = neuronav("compare", "path-integration", "--backends", "kinematic", *embodied, "--out", str(out))
+    assert first.returncode == 0, first.stderr
     (out / "mujoco").mkdir()
     (out / "mujoco" / "notes.txt").write_text("mine\n")
     before = snapshot(out)
-    result = neuronav("compare", "path-integration", "--backends", "kinematic,mujoco", *SHORT, "--out", str(out))
+    result = neuronav("compare", "path-integration", "--backends", "kinematic,mujoco", *embodied, "--out", str(out))
     assert_refused(result, "mujoco", "no neuronav run wrote")
     assert snapshot(out) == before  # the kinematic run did not start either
 
