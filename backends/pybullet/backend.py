@@ -554,11 +554,19 @@ class PybulletBackend(ArticulatedBackend):
     def _joint_torque(self) -> np.ndarray:
         return self._torque
 
+    def _contact_points(self) -> dict[int, list]:
+        """The body's contact points (one PyBullet call), by the body's link (the body is always side A)."""
+        by_link: dict[int, list] = {}
+        for point in pb.getContactPoints(bodyA=self._robot, physicsClientId=self._client):
+            by_link.setdefault(point[3], []).append(point)
+        return by_link
+
     def _contact_forces(self) -> np.ndarray:
         """(C, 3) total contact force on each contact site's geom, world frame (N)."""
         forces = np.zeros((len(self._contact_links), 3))
+        by_link = self._contact_points()
         for row, (link, _) in enumerate(self._contact_links):
-            for point in pb.getContactPoints(bodyA=self._robot, linkIndexA=link, physicsClientId=self._client):
+            for point in by_link.get(link, ()):
                 forces[row] += (point[9] * np.asarray(point[7]) + point[10] * np.asarray(point[11])
                                 + point[12] * np.asarray(point[13]))
         return forces
@@ -578,12 +586,15 @@ class PybulletBackend(ArticulatedBackend):
         """Press every touching adhesive geom into the surface it touches (along minus the contact normal)
         with its fraction of ``adhesion_n``."""
         cid, robot = self._client, self._robot
+        if not any(a and f > 0 for a, f in zip(self._adhesive, self._adhesion_scale)):
+            return
         pushes = []
+        by_link = self._contact_points()
         for site, (link, point), fraction in zip(self._contact_sites, self._contact_links, self._adhesion_scale):
             if not site.adhesive or fraction <= 0:
                 continue
             normal = np.zeros(3)
-            for contact in pb.getContactPoints(bodyA=robot, linkIndexA=link, physicsClientId=cid):
+            for contact in by_link.get(link, ()):
                 if contact[8] <= TOUCH_DISTANCE_M:
                     normal += contact[7]  # contactNormalOnB points from the surface to the body (A)
             size = np.linalg.norm(normal)
