@@ -11,7 +11,9 @@ Measures on one core (BLAS pinned to one thread before numpy is imported):
    minutes, so ``--baseline-trials`` of them are timed and the per-trial time is multiplied by the
    trial count (printed as an extrapolation).
 
-Targets (issue 2): batched at least 100x faster than one by one, and under 3 s.
+Targets (issue 2): batched at least 100x faster than one by one, and under 3 s. The headline
+speed-up (scenario default: float32 and table noise) is printed next to the like-for-like one
+(float64 and numpy's Gaussian sampler batched, against the float64 Gaussian hand-written model).
 
 The batched runs are timed ``--repeats`` times (default 3) and the best counts, as ``timeit`` does:
 the first run in a process also pays one-time costs (first allocations, lazy imports) that a
@@ -116,10 +118,12 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'one by one, hand-written numpy (extrapolated from ' + str(args.baseline_trials) + ')':<58} "
           f"{one_by_one_s:>9.1f} {100 * np.mean(np.array(closest) <= 20):>7.1f}%")
     print()
-    print(f"{'speed-up, default vs one by one':<40} {one_by_one_s / fast_s:>8.1f}x   target >= {TARGET_SPEEDUP:.0f}x  "
-          f"{'met' if one_by_one_s / fast_s >= TARGET_SPEEDUP else 'MISSED'}")
-    print(f"{'speed-up, exact vs one by one':<40} {one_by_one_s / exact_s:>8.1f}x")
-    print(f"{'wall time, default':<40} {fast_s:>8.2f} s  target < {TARGET_WALL_S:.0f} s  "
+    # The headline compares the scenario's default arithmetic (float32, table noise) with the
+    # float64 Gaussian hand-written model; the like-for-like figure uses float64 Gaussian on both sides.
+    print(f"{'speed-up, default (float32, table noise) vs one by one':<58} {one_by_one_s / fast_s:>8.1f}x   "
+          f"target >= {TARGET_SPEEDUP:.0f}x  {'met' if one_by_one_s / fast_s >= TARGET_SPEEDUP else 'MISSED'}")
+    print(f"{'speed-up, like for like (float64 Gaussian on both sides)':<58} {one_by_one_s / exact_s:>8.1f}x")
+    print(f"{'wall time, default':<58} {fast_s:>8.2f} s  target < {TARGET_WALL_S:.0f} s  "
           f"{'met' if fast_s < TARGET_WALL_S else 'MISSED'}")
     return 0
 

@@ -26,7 +26,7 @@ import networkx as nx
 import numpy as np
 import scipy.sparse
 
-from neuronav.activations import ACTIVATIONS, logistic_of_negated
+from neuronav.activations import ACTIVATIONS, identity, logistic_of_negated
 from neuronav.encoders import get_encoder
 from neuronav.errors import CircuitError, PortError
 
@@ -257,7 +257,10 @@ class _PopulationStep:
     def __call__(self, noise: np.ndarray | None) -> None:
         for call in self.calls:  # net input, bias and activation, all in the population's state rows
             call()
-        self.finish(self.rates_view, noise)
+        if self.noise_columns is not None:
+            self.add_noise(self.rates_view, noise, self.noise_columns)
+        if self.clip is not None:
+            _clip(self.rates_view, *self.clip, out=self.rates_view)
 
 
 class _RateStep(_PopulationStep):
@@ -265,7 +268,8 @@ class _RateStep(_PopulationStep):
 
     def bind(self, compiled: CompiledCircuit) -> None:
         super().bind(compiled)
-        self.calls.append(functools.partial(self.activation, self.net, **self.params))  # in place
+        if self.activation is not identity:
+            self.calls.append(functools.partial(self.activation, self.net, **self.params))  # in place
 
 
 def check_leaky_step(name: str, tau_s: float, dt_s: float | None) -> None:
@@ -620,7 +624,8 @@ class CompiledCircuit:
             self._table = normal_quantile_table(self.dtype)
             if self._noise_std is not None:  # one noise level for every population: fold it in
                 self._table = self._table * self._noise_std
-        self._noise_scaled = self.noise_method == "table" and self._noise_std is not None
+        # One noise level for every population: each block of noise is scaled once when drawn.
+        self._noise_scaled = self._noise_std is not None
         self._noise_by_cell = self.batch < SMALL_BATCH or self.noise_method == "table"
         if self.noise_method == "table":  # (step, column, agent), filled in place block after block
             self._noise_buffer = np.zeros((self._noise_block_steps, columns, self.batch), self.dtype)
@@ -664,6 +669,8 @@ class CompiledCircuit:
                     self._noise = np.ascontiguousarray(
                         self._noise.reshape(steps, words_per_step, batch, 4).transpose(0, 1, 3, 2)
                     ).reshape(steps, self._noise_width, batch)
+                if self._noise_scaled:  # std * sample, the same product as population by population
+                    self._noise *= self._noise_std
             self._noise_step = 0
         step = self._noise_step
         self._noise_step += 1
