@@ -30,12 +30,13 @@ from numbers import Integral
 
 import numpy as np
 
-from neuronav.backend import ARTICULATED_SENSORS, BackendBase, Capabilities, adhesion_port, start_pose
+from neuronav.backend import ARTICULATED_SENSORS, BackendBase, Capabilities, adhesion_port, check_seed, start_pose
 from neuronav.body import BodySpec, Geom, quat_to_matrix
 from neuronav.errors import ConfigError, PortError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.world import World
 
+MIN_TIMESTEP_S = 1e-6
 # Reset: overlaps up to this deep are touching, not inside; a lift clears the overlap by LIFT_CLEARANCE_M.
 LIFT_TOLERANCE_M = 1e-4
 LIFT_CLEARANCE_M = 1e-3
@@ -87,20 +88,12 @@ def canonical_quat(quat) -> np.ndarray:
 
 
 def check_timestep(where: str, timestep_s) -> float:
-    """A physics step in seconds: a finite number > 0 (at most 1 s)."""
-    if not (isinstance(timestep_s, int | float | np.floating) and np.isfinite(timestep_s)
-            and 0 < timestep_s <= 1.0):
-        raise ConfigError(f"{where} backend: timestep_s must be a number of seconds in (0, 1], got {timestep_s!r}")
+    """A physics step in seconds: a number from ``MIN_TIMESTEP_S`` (1 µs) to 1 s."""
+    if not (isinstance(timestep_s, int | float | np.floating) and not isinstance(timestep_s, bool)
+            and np.isfinite(timestep_s) and MIN_TIMESTEP_S <= timestep_s <= 1.0):
+        raise ConfigError(f"{where} backend: timestep_s must be a number of seconds from {MIN_TIMESTEP_S:g} to 1, "
+                          f"got {timestep_s!r}")
     return float(timestep_s)
-
-
-def check_seed(where: str, seed) -> int | None:
-    """A reset seed: None or an int >= 0 (a seed NumPy's generators accept)."""
-    if seed is None:
-        return None
-    if isinstance(seed, bool) or not isinstance(seed, Integral) or seed < 0:
-        raise ConfigError(f"{where} reset: seed must be None or an int >= 0, got {seed!r}")
-    return int(seed)
 
 
 # -- the body's extent and the follow camera ---------------------------------------------------------
@@ -279,7 +272,8 @@ class ArticulatedBackend(BackendBase):
             self.notes.append(f"{LIFT_NOTE} (first at {[float(position[0]), float(position[1])]}, by {lifted:.4f} m)")
 
     def _check_steps(self, n) -> int:
-        if isinstance(n, bool) or not isinstance(n, Integral | float) or int(n) != n or n < 0:
+        whole = isinstance(n, Integral) or (isinstance(n, float) and np.isfinite(n) and int(n) == n)
+        if isinstance(n, bool) or not whole or n < 0:
             raise ConfigError(f"{self.engine} step: n must be a whole number of steps >= 0, got {n!r}")
         return int(n)
 

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from numbers import Integral
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -121,6 +122,15 @@ def start_pose(position_m, yaw_rad: float, pitch_rad: float, where: str,
     spin = np.array([np.cos(spin_rad / 2.0), 0.0, 0.0, np.sin(spin_rad / 2.0)])
     quat = quat_product(yaw, quat_product(pitch, spin))
     return np.append(position, 0.0)[:3], position.size == 3, quat
+
+
+def check_seed(where: str, seed) -> int | None:
+    """A reset seed: None or an int >= 0 (a seed NumPy's generators accept); every backend's rule."""
+    if seed is None:
+        return None
+    if isinstance(seed, bool) or not isinstance(seed, Integral) or seed < 0:
+        raise ConfigError(f"{where} reset: seed must be None or an int >= 0, got {seed!r}")
+    return int(seed)
 
 
 @dataclass(frozen=True)

@@ -18,12 +18,18 @@ import numpy as np
 from neuronav.body import Gait
 from neuronav.errors import ConfigError
 
+# Fast steps per slow step at the most: beyond it one slow step would run for hours (a typo like
+# timestep_s=1e-300 would otherwise hang the loop).
+MAX_CLOCK_RATIO = 1_000_000
+
 
 def integer_ratio(slow_s: float, fast_s: float, what: str) -> int:
-    """``slow_s / fast_s`` as an int, or a :class:`ConfigError` naming the two clocks."""
-    if not (fast_s > 0 and slow_s > 0):
-        raise ConfigError(f"{what}: clock periods must be positive, got {slow_s} and {fast_s}")
+    """``slow_s / fast_s`` as an int (1 to ``MAX_CLOCK_RATIO``), or a :class:`ConfigError` naming the two clocks."""
+    if not (np.isfinite(fast_s) and np.isfinite(slow_s) and fast_s > 0 and slow_s > 0):
+        raise ConfigError(f"{what}: clock periods must be positive and finite, got {slow_s} and {fast_s}")
     ratio = slow_s / fast_s
+    if ratio > MAX_CLOCK_RATIO:
+        raise ConfigError(f"{what}: {slow_s} s / {fast_s} s = {ratio:.3g} steps; at most {MAX_CLOCK_RATIO:,}")
     if abs(ratio - round(ratio)) > 1e-9 or round(ratio) < 1:
         raise ConfigError(f"{what}: {slow_s} s is not an integer multiple of {fast_s} s")
     return int(round(ratio))

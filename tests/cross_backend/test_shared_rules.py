@@ -54,6 +54,23 @@ def test_reset_refuses_a_seed_that_is_not_a_non_negative_int(engine, seed):
     engine.reset(seed=None)
 
 
+@pytest.mark.parametrize("name", BACKENDS)
+@pytest.mark.parametrize("timestep_s", [0.0, -0.002, 1e-300, float("nan"), 2.0, "0.002"])
+def test_a_physics_step_out_of_range_is_refused(name, timestep_s):
+    require(name)
+    with pytest.raises(ConfigError, match="timestep_s"):
+        registry.load("backend", name)(timestep_s=timestep_s)
+
+
+@pytest.mark.parametrize("n", [-1, 2.5, float("inf"), float("nan"), True, "3"])
+def test_step_takes_a_whole_number_of_steps(engine, n):
+    with pytest.raises(ConfigError, match="whole number"):
+        engine.step(n)
+    engine.step(np.int64(2))
+    engine.step(2.0)
+    assert engine.time == pytest.approx(4 * engine.timestep)
+
+
 def test_sensors_are_the_shared_table_sized_from_the_body(engine):
     shapes = {s.name: s.shape for s in engine.capabilities.sensors}
     sizes = {"J": 1, "C": 2, "O": 1}

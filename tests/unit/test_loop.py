@@ -81,6 +81,21 @@ def test_non_integer_clock_ratios_are_refused(periods):
         Clocks(*periods)
 
 
+@pytest.mark.parametrize("periods", [(1e-300, 0.008, 0.64), (0.002, 0.008, 1e10), (float("nan"), 0.008, 0.64),
+                                     (0.002, float("inf"), 0.64)])
+def test_clocks_that_would_hang_the_loop_are_refused(periods):
+    with pytest.raises(ConfigError, match="at most|finite"):
+        Clocks(*periods)
+
+
+def test_video_plays_in_real_time_whatever_the_control_step():
+    from neuronav.video import real_time_fps
+
+    assert real_time_fps(0.008, 4) == pytest.approx(31.25)
+    assert real_time_fps(0.008, 8) * 8 * 0.008 == pytest.approx(1.0)  # one frame per its share of a second
+    assert real_time_fps(0.02, 1) == pytest.approx(50.0)
+
+
 def test_follow_camera_axes_on_the_floor_and_on_a_wall():
     from neuronav.body import quat_to_matrix
     from neuronav.video import follow_axes
