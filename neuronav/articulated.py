@@ -48,6 +48,10 @@ FOLLOW_SIZE_PX = (640, 480)
 FOLLOW_FOV_DEG = 45.0
 FOLLOW_DOWN_DEG = 25.0
 FOLLOW_MARGIN = 1.25
+# A body on a wall is seen from over its back (70° from its forward axis toward its back), and the
+# camera never goes below FOLLOW_MIN_EYE_Z_M (it would look through the floor from underneath).
+FOLLOW_WALL_DEG = 70.0
+FOLLOW_MIN_EYE_Z_M = 0.05
 
 
 def articulated_capabilities(name: str, body: BodySpec | None = None) -> Capabilities:
@@ -175,19 +179,25 @@ def follow_view(root_pos: np.ndarray, rotation: np.ndarray, bounds: tuple[np.nda
     """The follow camera's view of a body whose root is at ``root_pos`` with ``rotation`` (3, 3).
 
     It looks at the centre of the body's rest-pose bounding sphere (``bounds``, from
-    :func:`rest_bounds`), from behind and ``FOLLOW_DOWN_DEG`` above (along :func:`follow_axes`),
-    from the distance at which that sphere spans 1/``FOLLOW_MARGIN`` of the image height: the whole
-    body is in the frame, whatever its proportions.
+    :func:`rest_bounds`) from the distance at which that sphere spans 1/``FOLLOW_MARGIN`` of the
+    image height: the whole body is in the frame, whatever its proportions. On the floor it looks
+    from behind, ``FOLLOW_DOWN_DEG`` down (along :func:`follow_axes`); on a wall or a ceiling from
+    over the body's back, ``FOLLOW_WALL_DEG`` from its forward axis. The eye stays at least
+    ``FOLLOW_MIN_EYE_Z_M`` above z = 0 (it is raised there, still looking at the body).
     """
     centre_root, radius = bounds
     forward, up = follow_axes(rotation)
     target = np.asarray(root_pos, float) + np.asarray(rotation, float) @ centre_root
-    view = forward - np.tan(np.radians(FOLLOW_DOWN_DEG)) * up
-    view /= np.linalg.norm(view)
+    angle = np.radians(FOLLOW_DOWN_DEG if up[2] == 1.0 else FOLLOW_WALL_DEG)  # follow_axes: world up on the floor
+    view = np.cos(angle) * forward - np.sin(angle) * up
     distance = FOLLOW_MARGIN * radius / np.sin(np.radians(FOLLOW_FOV_DEG) / 2.0)
+    eye = target - distance * view
+    if eye[2] < FOLLOW_MIN_EYE_Z_M:
+        eye[2] = FOLLOW_MIN_EYE_Z_M
+        distance = float(np.linalg.norm(target - eye))
+        view = (target - eye) / distance
     camera_up = np.cross(np.cross(view, up), view)
-    return FollowView(eye=target - distance * view, target=target, up=camera_up / np.linalg.norm(camera_up),
-                      distance_m=float(distance))
+    return FollowView(eye=eye, target=target, up=camera_up / np.linalg.norm(camera_up), distance_m=float(distance))
 
 
 # -- the base class --------------------------------------------------------------------------------------

@@ -142,14 +142,20 @@ def test_ground_height_is_one_cached_vectorised_lookup():
 
 
 @pytest.mark.parametrize("name", BACKENDS)
-def test_follow_camera_keeps_the_whole_ant_in_view(name):
+@pytest.mark.parametrize("where", ["floor", "wall"])
+def test_follow_camera_keeps_the_whole_ant_in_view(name, where):
     require(name)
     from bodies.desert_ant import desert_ant
 
     body = desert_ant()
+    wall = Ground("wall", wall_distance_m=1.0)
     with registry.load("backend", name)() as backend:
-        backend.load(World(), [body])
-        backend.reset(yaw_rad=0.7)
+        if where == "floor":
+            backend.load(World(), [body])
+            backend.reset(yaw_rad=0.7)
+        else:  # head up on the wall, belly to it (as the locomotion scenario starts it)
+            backend.load(World(ground=wall, adhesion_n=200.0), [body])
+            backend.reset(position_m=(1.0 - body.spawn_height_m, 0.0, 1.8), pitch_rad=np.pi / 2)
         view = backend.follow_view()
         sites = np.array(list(backend.model_summary()["site_pos_m"].values()))  # claws, antenna tips, eyes ...
         look = (view.target - view.eye) / view.distance_m
@@ -157,6 +163,7 @@ def test_follow_camera_keeps_the_whole_ant_in_view(name):
         angles = np.arccos(np.clip(rays @ look / np.linalg.norm(rays, axis=1), -1.0, 1.0))
         # every site within the vertical half field of view of the look direction (the image is wider than tall)
         assert angles.max() < np.radians(FOLLOW_FOV_DEG) / 2, np.degrees(angles.max())
+        assert view.eye[2] > 0.0 and (where == "floor" or view.eye[0] < 1.0)  # above the floor, before the wall
         centre, radius = rest_bounds(body)
         pose = backend.read(["body_pos"])["body_pos"][0]
         assert np.linalg.norm(view.target - pose) == pytest.approx(np.linalg.norm(centre), abs=1e-9)
