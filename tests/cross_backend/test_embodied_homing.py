@@ -89,3 +89,19 @@ def test_cx_fed_the_walking_body_points_home_after_a_straight_walk(backend):
     decoded, distance = decode_home_vector(cx.memory("CPU4"), 0.04)
     error_deg = np.degrees(abs(np.angle(np.exp(1j * (decoded[0] - true_home)))))
     assert error_deg < 10.0
+
+
+@pytest.mark.parametrize("settings, fragment", [
+    (["embodied_timestep_s=1e-300"], "at least 0.0001"),  # used to hang: 8e297 physics steps per control step
+    (["embodied_timestep_s=0.0003"], "integer multiple"),
+    (["embodied_timestep_s=0.0001", "outbound_s=3600", "homing_timeout_s=3600"], "at most 4,000,000"),
+])
+def test_embodied_settings_that_would_hang_are_refused_before_any_trial(settings, fragment):
+    from neuronav.errors import ConfigError
+
+    scenario = load_scenario("path-integration")
+    config = apply_overrides(PathIntegrationConfig, ["protocol=i2bot", *settings])
+    for backend in PHYSICS:
+        with pytest.raises(ConfigError, match=fragment):
+            scenario.check(config, backend)
+    scenario.check(config, "kinematic")  # the unicycle steps once per control step: nothing to bound
