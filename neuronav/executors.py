@@ -353,9 +353,15 @@ def check_scheduler(scheduler: Any) -> None:
 
 
 def _reachable(address: str, timeout_s: float) -> None:
-    """For a tcp:// address, raise :class:`ConfigError` at once when nothing listens there."""
+    """For an address over TCP, raise :class:`ConfigError` at once when nothing listens there; for a
+    tcp:// address, also when what listens is not a Dask scheduler.
+
+    A Dask scheduler speaks first: on a new connection it sends its handshake, a frame whose first
+    8 bytes are a small little-endian length. Anything else (silence, as from a web server waiting
+    for a request, or text) is refused here, where Dask's own client would wait forever.
+    """
     parts = urlsplit(address)
-    if parts.scheme != "tcp":
+    if parts.scheme not in ("tcp", "tls", "ws", "wss"):  # the schemes that run over TCP
         return
     try:
         host, port = parts.hostname, parts.port
@@ -364,11 +370,28 @@ def _reachable(address: str, timeout_s: float) -> None:
     if not host or port is None:
         raise ConfigError(f"--scheduler {address}: give a host and a port, like tcp://HOST:8786")
     try:
-        with socket.create_connection((host, port), timeout=timeout_s):
-            pass
+        probe = socket.create_connection((host, port), timeout=timeout_s)
     except OSError as error:
-        reason = error.strerror or type(error).__name__
+        reason = "timed out" if isinstance(error, TimeoutError) else error.strerror or type(error).__name__
         raise ConfigError(f"cannot reach the Dask scheduler at {address}: {reason}") from None
+    with probe:
+        if parts.scheme != "tcp":
+            return
+        header = b""
+        try:
+            while len(header) < 8:
+                chunk = probe.recv(8 - len(header))
+                if not chunk:
+                    break
+                header += chunk
+        except TimeoutError:
+            raise ConfigError(f"--scheduler {address}: no Dask scheduler answered within {timeout_s:g} s "
+                              "(is it the scheduler's port, usually 8786?)") from None
+        except OSError:
+            pass  # reset by the peer: not a scheduler (below)
+    if len(header) < 8 or not 0 < int.from_bytes(header, "little") < 2**32:
+        raise ConfigError(f"--scheduler {address}: what listens there is not a Dask scheduler "
+                          "(is it the scheduler's port, usually 8786?)")
 
 
 def connect(scheduler: Any) -> tuple[Any, bool]:
@@ -382,10 +405,27 @@ def connect(scheduler: Any) -> tuple[Any, bool]:
         return scheduler, False
     from distributed import Client
 
+    class _Client(Client):
+        """A Client that, when its constructor fails, does not try to close itself again when collected
+        (distributed's own ``__del__`` would wait 20 s and print a traceback at exit)."""
+
+        _failed = False
+
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            try:
+                super().__init__(*args, **kwargs)
+            except BaseException:
+                self._failed = True
+                raise
+
+        def __del__(self) -> None:
+            if not self._failed:
+                super().__del__()
+
     timeout = os.environ.get("NEURONAV_SCHEDULER_TIMEOUT", "10s")
     _reachable(scheduler, timeout_s=5.0)
     try:
-        client = Client(scheduler, timeout=timeout, set_as_default=False)
+        client = _Client(scheduler, timeout=timeout, set_as_default=False)
     except Exception as error:  # noqa: BLE001 - any failure to connect is the user's address
         reason = str(error).splitlines()[0] if str(error) else type(error).__name__
         raise ConfigError(f"cannot reach the Dask scheduler at {scheduler}: {reason}") from None

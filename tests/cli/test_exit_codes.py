@@ -183,3 +183,28 @@ def test_compare_refuses_other_settings_in_any_backend_folder_before_running_the
     assert_refused(again, f"run directory {str(out / 'mujoco')!r} holds results with other settings",
                    "config.level: 1 there, 2 now")
     assert not (out / "kinematic").exists()
+
+
+def test_a_scheduler_address_where_something_else_listens_is_refused_in_one_line(tmp_path):
+    """A web server (silent until asked) or any other service on the port: refused, no hang, no traceback."""
+    import socket
+    import threading
+
+    with socket.create_server(("127.0.0.1", 0)) as silent, socket.create_server(("127.0.0.1", 0)) as chatty:
+        def greet():
+            try:
+                connection, _ = chatty.accept()
+                with connection:
+                    connection.sendall(b"SSH-2.0-OpenSSH_9.6\r\n")
+                    connection.recv(1)
+            except OSError:  # the probe hung up, or the server closed at the end of the test
+                pass
+
+        threading.Thread(target=greet, daemon=True).start()
+        for server, message in ((silent, "no Dask scheduler answered within 5 s"),
+                                (chatty, "what listens there is not a Dask scheduler")):
+            address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+            result = neuronav("run", "path-integration", "--scheduler", address, "--out", str(tmp_path / "o"),
+                              timeout=60)
+            assert_refused(result, message)
+            assert not (tmp_path / "o").exists()
