@@ -77,6 +77,12 @@ def normal_quantile_table(dtype: Any = np.float64) -> np.ndarray:
     return ndtri((np.arange(TABLE_LEVELS) + 0.5) / TABLE_LEVELS).astype(dtype)
 
 
+def _is_dense(weights: np.ndarray) -> bool:
+    """Most of the row's weights non-zero: summed by broadcasting every source cell (see _Product)."""
+    weights = np.asarray(weights)
+    return weights.shape[1] <= 2 * int((weights != 0).sum(axis=1).max(initial=0))
+
+
 def _overlaps(a: slice, b: slice) -> bool:
     return a.start < b.stop and b.start < a.stop
 
@@ -134,7 +140,7 @@ class _Product:
                 term = ("diagonal", np.diag(weights).astype(dtype)[:, None], 1)
             elif sparse:
                 term = ("sparse", scipy.sparse.csr_matrix(weights.astype(dtype)), 1)
-            elif span <= 2 * per_row:
+            elif _is_dense(weights):
                 term = ("dense", np.ascontiguousarray(weights.T.astype(dtype))[:, :, None], span)
             else:
                 index = np.zeros((per_row, size), np.intp)
@@ -560,7 +566,8 @@ class CompiledCircuit:
                 members = groups[-1] + [(source, matrix)]
                 lo = self.cells[members[0][0]].start
                 filled = sum(self.cells[s].stop - self.cells[s].start for s, _ in members)
-                if filled >= 0.5 * (self.cells[source].stop - lo):
+                # A dense block beside a sparse one stays apart: broadcasting it needs no gather.
+                if filled >= 0.5 * (self.cells[source].stop - lo) and _is_dense(matrix) == _is_dense(groups[-1][-1][1]):
                     groups[-1] = members
                     continue
             groups.append([(source, matrix)])
