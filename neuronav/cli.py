@@ -3,7 +3,8 @@
 Exit status
     0: every trial ran (a trial whose ant does not reach home has ``success`` 0; it still ran).
     1: some trials failed (raised, diverged, or their worker died); their count and the first
-    reason are printed on stderr, and the results of the others are written.
+    reason are printed on stderr, and the results of the others are written. Also 1 when the run
+    ran out of memory (one line on stderr).
     2: bad input, found before any trial runs and before anything is written: an unknown scenario,
     a backend that is empty, unknown, unsupported or not installed, a bad ``--set``/``--grid``/
     ``--config`` key or value, settings the scenario cannot run on that backend, more trials than
