@@ -194,7 +194,8 @@ class _Product:
                 target[...] = data  # filled once: never written again
             elif kind == "gather":
                 index, values = data
-                calls.append(functools.partial(np.take, source, index, 0, target))
+                # mode "clip" (the indices are always in range): with "raise" numpy buffers ``out``.
+                calls.append(functools.partial(np.take, source, index, 0, target, "clip"))
                 calls.append(functools.partial(np.multiply, target, values, out=target))
             else:
                 calls.append(functools.partial(_sparse_term, data, source[rows], target[0]))
