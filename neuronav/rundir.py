@@ -211,6 +211,9 @@ def write_run_directory(
 SETTINGS_FILE = "settings.json"
 PARTS_DIR = "parts"
 MARKER_FILE = ".neuronav-run"
+# Folders made before the marker existed hold this (empty) lock file and a settings.json of kind run
+# or sweep; they are adopted (marker added, lock file removed) so that they can still be resumed.
+LEGACY_LOCK_FILE = ".neuronav.lock"
 # Kinds of run folder; a folder of one group is never reused by a command of the other.
 _MARKER_GROUPS = {"run": "results", "sweep": "results", "compare": "compare"}
 SETTINGS_FORMAT = 1
@@ -394,7 +397,8 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
 
     Allowed: a path that does not exist yet (its parents are made later), an empty directory, or a
     directory holding neuronav's marker (:data:`MARKER_FILE`) of the same kind of command (run and
-    sweep folders are one kind; compare folders another). Anything else raises
+    sweep folders are one kind; compare folders another), or a run or sweep folder made before the
+    marker existed (its ``.neuronav.lock`` and ``settings.json``). Anything else raises
     :class:`ConfigError`: an empty path, a file, a folder with other files (the user's own, or ``/``).
     """
     if out_dir is None or (isinstance(out_dir, str) and not out_dir.strip()):
@@ -417,6 +421,8 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
             raise ConfigError(f"{flag} {_out_label(path)} holds the results of a neuronav {made_by}, not of a "
                               f"{kind}; give another folder")
         return path
+    if _legacy_run_folder(path) in ("run", "sweep") and _MARKER_GROUPS.get(kind) == "results":
+        return path
     try:
         with os.scandir(path) as entries:
             empty = next(entries, None) is None
@@ -426,6 +432,19 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
         raise ConfigError(f"{flag} {_out_label(path)} holds files that no neuronav run wrote (it has no "
                           f"{MARKER_FILE} marker); give a new or empty folder")
     return path
+
+
+def _legacy_run_folder(path: Path) -> str | None:
+    """The kind ("run"/"sweep") of a run folder made before the marker existed, else None."""
+    if not (path / LEGACY_LOCK_FILE).is_file():
+        return None
+    try:
+        settings = json.loads((path / SETTINGS_FILE).read_text())
+    except (OSError, ValueError):
+        return None
+    if not isinstance(settings, dict) or "format" not in settings:
+        return None
+    return settings.get("kind") if settings.get("kind") in ("run", "sweep") else None
 
 
 def _marker_kind(marker: Path) -> str | None:
@@ -451,6 +470,8 @@ def claim_out_dir(out_dir: Path, kind: str = "run", flag: str = "--out") -> Path
             _readable(str(path / MARKER_FILE))
         except FileExistsError:
             pass
+        if (path / LEGACY_LOCK_FILE).is_file():
+            (path / LEGACY_LOCK_FILE).unlink()  # the marker is the lock now
     except OSError as error:
         raise ConfigError(f"{flag} {_out_label(out_dir)}: cannot create the run directory "
                           f"({error.strerror or error})") from None

@@ -134,3 +134,20 @@ def test_a_folder_without_finished_trials_may_take_other_settings(tmp_path):
     assert result.returncode == 0, result.stderr
     assert json.loads((out / "settings.json").read_text())["config"]["noise"] == 0.3
     assert json.loads((out / "summary.json").read_text())["config"]["noise"] == 0.3
+
+
+def test_a_run_folder_made_before_the_marker_existed_is_resumed_and_adopted(tmp_path):
+    out = tmp_path / "old"
+    args = ["run", "path-integration", "--trials", "2", *SHORT, "--no-figures", "--out", str(out)]
+    assert neuronav(*args).returncode == 0
+    (out / MARKER_FILE).unlink()  # as the previous version left it: an empty lock file, no marker
+    (out / ".neuronav.lock").write_text("")
+    result = neuronav(*args)
+    assert result.returncode == 0, result.stderr
+    assert "2 already done" in result.stdout
+    assert (out / MARKER_FILE).is_file() and not (out / ".neuronav.lock").exists()
+    # Without its settings.json, a folder with such a file is not recognised.
+    (out / MARKER_FILE).unlink()
+    (out / ".neuronav.lock").write_text("")
+    (out / "settings.json").unlink()
+    assert_refused(neuronav(*args), "no neuronav run wrote")
