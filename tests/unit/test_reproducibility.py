@@ -130,15 +130,15 @@ def _trials_csv(out: Path) -> list[dict]:
 
 
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
-def test_cli_workers_1_and_2_write_identical_trials(tmp_path, dtype, capsys):
+def test_cli_workers_1_and_2_and_chunks_of_5_write_identical_trials(tmp_path, dtype, capsys):
     settings = ["--set", "outbound_steps=120", "--set", "inbound_steps=120", "--set", "record_trials=2",
                 "--set", f"dtype={dtype}"]
     tables = []
-    for workers in (1, 2):
-        out = tmp_path / f"workers{workers}"
+    for workers, chunk in ((1, []), (2, []), (2, ["--chunk-size", "5"])):
+        out = tmp_path / f"workers{workers}{'-'.join(chunk)}"
         code = main(["run", "path-integration", "--trials", "12", "--seed", "5", "--out", str(out), "--no-figures",
-                     "--no-progress", "--workers", str(workers), *settings])
+                     "--no-progress", "--workers", str(workers), *chunk, *settings])
         assert code == 0, capsys.readouterr().err
         tables.append((out / "trials.csv").read_bytes())
         assert len(_trials_csv(out)) == 12
-    assert tables[0] == tables[1]
+    assert tables[0] == tables[1] == tables[2]
