@@ -142,3 +142,28 @@ def test_cli_workers_1_and_2_and_chunks_of_5_write_identical_trials(tmp_path, dt
         tables.append((out / "trials.csv").read_bytes())
         assert len(_trials_csv(out)) == 12
     assert tables[0] == tables[1] == tables[2]
+
+
+@pytest.mark.parametrize("mode", ["stone", "unicycle"])
+def test_kinematic_agent_is_independent_of_its_batch(mode):
+    from backends.kinematic import KinematicBackend
+    from neuronav.world import PointAgents, World
+
+    rng = np.random.default_rng(4)
+    batch, steps = 9, 60
+    shape = (steps, batch, 1)
+    commands = {"rotation": rng.normal(0, 0.2, shape), "acceleration": rng.uniform(0, 0.2, shape),
+                "turn": rng.uniform(-1, 1, shape), "stride": rng.uniform(0, 0.5, shape)}
+
+    def run(agents):
+        backend = KinematicBackend()
+        backend.load(World(), [PointAgents(count=len(agents), mode=mode)])
+        for t in range(steps):
+            backend.write({k: v[t, agents] for k, v in commands.items()})
+            backend.step()
+        return np.concatenate([backend.read(["position", "velocity", "heading"])[k] for k in
+                               ("position", "velocity", "heading")], axis=1)
+
+    whole = run(list(range(batch)))
+    for agent in (0, 4, batch - 1):
+        assert np.array_equal(whole[agent:agent + 1], run([agent]))
