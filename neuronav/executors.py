@@ -245,8 +245,11 @@ class LocalPool:
         self.close_fds = tuple(close_fds)
 
     def _pool(self, workers: int) -> ProcessPoolExecutor:
-        return ProcessPoolExecutor(max_workers=workers, mp_context=pool_context(), initializer=worker_initializer,
-                                   initargs=(os.getpid(), self.close_fds))
+        context = pool_context()
+        # Only a forked worker holds copies of this process's descriptors; a spawned one has its own.
+        inherited = self.close_fds if context.get_start_method() == "fork" else ()
+        return ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=worker_initializer,
+                                   initargs=(os.getpid(), inherited))
 
     def run(self, tasks: list[ChunkTask]) -> Outcomes:
         if not tasks:
