@@ -173,14 +173,16 @@ def apply_overrides(config_type: type, assignments: Iterable[str] | Mapping[str,
     return build_config(config_type, assignments)
 
 
-def load_config_file(config_type: type, path: str | Path, overridden: Iterable[str] = ()) -> dict[str, Any]:
+def load_config_file(config_type: type, path: str | Path,
+                     overridden: Mapping[str, Any] | Iterable[str] = ()) -> dict[str, Any]:
     """The settings in a TOML file, checked against ``config_type``: ``{key: typed value}``.
 
     The file holds ``key = value`` pairs with the keys of ``--set`` (``neuronav list`` shows them),
     e.g. ``noise = 0.2`` or ``dtype = "float64"``. Unknown keys, values of the wrong type and values
-    out of range raise :class:`ConfigError` naming the key and what is allowed. The ranges of the keys in
-    ``overridden`` (set again by ``--set`` or a grid, which win) are not checked here: their values are
-    not used.
+    out of range raise :class:`ConfigError` naming the key and what is allowed. ``overridden`` holds the
+    values that win over the file (``--set``, a grid point), or just their keys: the file's values of
+    those keys are not checked (they are not used), and rules between fields are checked with the
+    winning values in place.
     """
     path = Path(path)
     try:
@@ -202,10 +204,15 @@ def load_config_file(config_type: type, path: str | Path, overridden: Iterable[s
         # TOML values are typed: a number written as a string is a wrong type, as is a table or array.
         if isinstance(value, (dict, list)) or (isinstance(value, str) and kind is not str):
             raise ConfigError(f"config file {str(path)!r}: key {key!r} expects {_type_name(kind)}, got {value!r}")
+    winning = dict(overridden) if isinstance(overridden, Mapping) else {}
     skipped = set(overridden)
-    try:
-        build_config(config_type, {k: v for k, v in data.items() if k not in skipped})  # types and ranges
+    try:  # types, ranges and rules between fields, of the config the file's values end up in
+        build_config(config_type, {k: v for k, v in data.items() if k not in skipped}, winning)
     except ConfigError as error:
+        try:
+            build_config(config_type, winning)
+        except ConfigError:
+            raise error from None  # the winning values' own error, not the file's
         raise ConfigError(f"config file {str(path)!r}: {error}") from None
     return dict(data)
 

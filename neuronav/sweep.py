@@ -311,8 +311,8 @@ def _configs(instance: Scenario, grid: Any, overrides: Any, config_file: Any, is
     both = [k for k in parsed_grid if k in set_values]
     if both:
         raise ConfigError(f"key {both[0]!r} is in both --grid and --set; give it in one place")
-    file_values = load_config_file(config_type, config_file, overridden=[*set_values, *parsed_grid]) \
-        if config_file is not None else {}
+    winning = {**set_values, **{k: values[0][0] for k, values in parsed_grid.items()}}
+    file_values = load_config_file(config_type, config_file, overridden=winning) if config_file is not None else {}
     base = {**{k: v for k, v in file_values.items() if k not in parsed_grid}, **set_values}
     base_config = build_config(config_type, {k: v for k, v in base.items()}) if not parsed_grid else None
     points = grid_points(config_type, base, parsed_grid)

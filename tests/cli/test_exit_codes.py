@@ -208,3 +208,17 @@ def test_a_scheduler_address_where_something_else_listens_is_refused_in_one_line
                               timeout=60)
             assert_refused(result, message)
             assert not (tmp_path / "o").exists()
+
+
+def test_rules_between_fields_see_the_set_values_that_win_over_the_file(tmp_path):
+    """min_acceleration <= max_acceleration: a file's min checked against --set's max, not the default."""
+    settings = tmp_path / "fast.toml"
+    settings.write_text("min_acceleration = 0.3\noutbound_steps = 100\ninbound_steps = 100\n")
+    assert_refused(neuronav("run", "path-integration", "--config", str(settings), "--out", str(tmp_path / "a")),
+                   f"config file {str(settings)!r}:", "min_acceleration")
+    out = tmp_path / "b"
+    result = neuronav("run", "path-integration", "--config", str(settings), "--set", "max_acceleration=0.5",
+                      "--no-figures", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    config = json.loads((out / "summary.json").read_text())["config"]
+    assert (config["min_acceleration"], config["max_acceleration"]) == (0.3, 0.5)
