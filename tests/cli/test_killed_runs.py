@@ -117,7 +117,6 @@ def test_workers_do_not_hold_the_run_folder_lock(tmp_path):
 
     out = tmp_path / "out"
     neuronav.rundir.claim_out_dir(out)
-    read_end, write_end = os.pipe()
     with neuronav.rundir.DirectoryLock(out) as lock:
         pool = LocalPool(1, close_fds=(lock.fileno,))._pool(1)
         future = pool.submit(os.getpid)
@@ -128,8 +127,6 @@ def test_workers_do_not_hold_the_run_folder_lock(tmp_path):
             pass
     finally:
         pool.shutdown(wait=True)
-        os.close(read_end)
-        os.close(write_end)
 
 
 def test_interrupted_assembly_is_finished_by_a_rerun(tmp_path, monkeypatch, capsys):
