@@ -24,8 +24,7 @@ from pathlib import Path
 import numpy as np
 from scipy.interpolate import RegularGridInterpolator
 
-from neuronav.articulated import check_seed
-from neuronav.backend import BackendBase, Capabilities
+from neuronav.backend import BackendBase, Capabilities, check_seed
 from neuronav.errors import ConfigError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.world import PointAgents, World
