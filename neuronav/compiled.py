@@ -26,7 +26,7 @@ import networkx as nx
 import numpy as np
 import scipy.sparse
 
-from neuronav.activations import ACTIVATIONS, identity, logistic_of_negated
+from neuronav.activations import ACTIVATIONS, identity, logistic, logistic_of_negated
 from neuronav.encoders import get_encoder
 from neuronav.errors import CircuitError, PortError
 
@@ -243,6 +243,11 @@ class _PopulationStep:
         """Point the step's calls at the compiled circuit's (new) state arrays."""
         self.rates_view = compiled._state[self.cells]
         self.add_noise = compiled._add_noise
+        # Pre-scaled noise laid out (column, agent): this population adds a plain row slice.
+        self.noise_rows = None
+        if self.noise_columns is not None and compiled._noise_by_cell and compiled._noise_scaled:
+            start, size, _ = self.noise_columns
+            self.noise_rows = slice(start, start + size)
         self.net = self._net_target(compiled)
         self.product.bind(compiled._state, compiled._snapshot, self.net,
                           self.cells if self.net is self.rates_view else None)
@@ -256,7 +261,9 @@ class _PopulationStep:
 
     def finish(self, rates: np.ndarray, noise: np.ndarray | None) -> None:
         """Noise and clip, in place."""
-        if self.noise_columns is not None:
+        if self.noise_rows is not None:
+            rates += noise[self.noise_rows]
+        elif self.noise_columns is not None:
             self.add_noise(rates, noise, self.noise_columns)
         if self.clip is not None:
             _clip(rates, *self.clip, out=rates)
@@ -264,7 +271,9 @@ class _PopulationStep:
     def __call__(self, noise: np.ndarray | None) -> None:
         for call in self.calls:  # net input, bias and activation, all in the population's state rows
             call()
-        if self.noise_columns is not None:
+        if self.noise_rows is not None:
+            self.rates_view += noise[self.noise_rows]
+        elif self.noise_columns is not None:
             self.add_noise(self.rates_view, noise, self.noise_columns)
         if self.clip is not None:
             _clip(self.rates_view, *self.clip, out=self.rates_view)
@@ -346,14 +355,23 @@ class _IntegratorStep(_PopulationStep):
             memory -= self.leak
         if self.memory_clip is not None:
             _clip(memory, *self.memory_clip, out=memory)
-        np.copyto(self.rates_view, memory)
-        self.activation(self.rates_view, **self.params)
+        self._activate()
         self.finish(self.rates_view, noise)
+
+    def _activate(self) -> None:
+        """f(m) into the population's state rows."""
+        rates = self.rates_view
+        if self.activation is logistic:  # logistic's own steps, its first product written into the rates
+            np.multiply(self.memory, -self.params.get("slope", 1.0), out=rates)
+            rates += self.params.get("bias", 0.0)
+            logistic_of_negated(rates)
+        else:
+            np.copyto(rates, self.memory)
+            self.activation(rates, **self.params)
 
     def rates_of_memory(self) -> None:
         """The rates f(m), clipped, into the population's state rows (no noise): at reset and set_memory."""
-        np.copyto(self.rates_view, self.memory)
-        self.activation(self.rates_view, **self.params)
+        self._activate()
         if self.clip is not None:
             _clip(self.rates_view, *self.clip, out=self.rates_view)
 
@@ -614,12 +632,12 @@ class CompiledCircuit:
                           self.circuit.population(name).initial, self.dtype)
             for name in self._memory_names
         }
+        self._reset_noise()  # before binding: the steps read the noise layout
         for update in self._updates:
             update.bind(self)
         for update in self._updates:
             if update.kind == "integrator":
                 update.rates_of_memory()
-        self._reset_noise()
         self.steps = 0
 
     def _reset_noise(self) -> None:
