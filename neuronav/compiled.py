@@ -289,13 +289,23 @@ class _RateStep(_PopulationStep):
 
 
 def check_leaky_step(name: str, tau_s: float, dt_s: float | None) -> None:
-    """Compile-time stability check of a leaky population's Euler step: ``0 < dt_s <= tau_s / 2``."""
+    """Compile-time check of a leaky population's Euler step, one cell at a time: ``0 < dt_s <= tau_s / 2``.
+
+    For one cell, input held fixed, Euler multiplies the distance to the target by ``1 - dt/tau``; with
+    self-inhibition of weight ``-g`` (at activation slope 1) by ``1 - (1 + g) dt/tau``. At ``g = 1`` (a
+    self-inhibition as strong as the leak, as Sun et al.'s I cell) the step overshoots and alternates
+    exactly when ``dt > tau/2`` and diverges when ``dt > tau``. It does not check the coupling between
+    cells: a recurrent loop can need a shorter step (Sun et al.'s E-I loop by plain Euler swings from
+    about 70 µs with tau_I = 250 µs; see ``brains/ring.py``).
+    """
     if dt_s is None or not dt_s > 0:
         raise CircuitError(f"population {name!r} is leaky: compile with dt_s > 0 (got {dt_s!r})")
     if dt_s > 0.5 * tau_s:
         raise CircuitError(
             f"population {name!r}: dt_s = {dt_s:g} s is longer than half its tau_s = {tau_s:g} s; "
-            "Euler integration would oscillate or diverge — use dt_s <= tau_s / 2"
+            "the Euler step of a cell with self-inhibition as strong as its leak would overshoot and "
+            "alternate (and diverge past tau_s) — use dt_s <= tau_s / 2 (this checks each cell alone, "
+            "not the coupling between cells)"
         )
 
 
