@@ -8,9 +8,24 @@ ring attractor model for cue integration"; Sun et al. 2020, eLife 9:e54026): N e
     tau_I du/dt   = -u   + [gamma_I + W_IE sum_j c_j + W_II u]_+
 
 with W_EE,ij = (45 / N) exp(-d_ij^2 / (2 sigma^2)), W_IE = 60 / N, W_EI = -6, W_II = -1,
-gamma_E = -1.5, gamma_I = -7.5, tau_E = 5 ms, tau_I = 0.25 ms, integrated by Euler at 0.1 ms.
-Cell i prefers the angle ``2 pi i / N``. Every recurrent connection is delayed (reads the state at
-the start of the step), so the graph integrates the equations above by explicit Euler exactly.
+gamma_E = -1.5, gamma_I = -7.5, tau_E = 5 ms, tau_I = 0.25 ms, stepped at 0.1 ms (:data:`DT_S`).
+Cell i prefers the angle ``2 pi i / N``.
+
+Integration: semi-implicit Euler. Every connection is delayed (reads the state at the start of the
+step) except E -> I: each step first updates E from the old E and u by Euler, then u from the *new*
+E and the old u. Plain explicit Euler (E -> I delayed too) is not stable at 0.1 ms: the E–I loop is
+a damped oscillation (period about 1 ms) whose Euler step grows once dt exceeds about 68 µs, so after
+the cue is switched off the I cell swings between 0.59 and 0.94 for ever (peak-to-peak 0.36)
+instead of resting at 0.7321. Measured on the cue-off state (a 40° cue at 0° for 0.2 s, then 0.5 s
+without cue; peak-to-peak of u over the last 20 ms), explicit Euler is steady up to 65 µs (0 at 50
+and 65 µs) and swings from 70 µs (0.037; 0.36 at 100 µs, 0.55 at 125 µs); the semi-implicit step
+is steady at 100 and 125 µs (peak-to-peak 0 and 5e-15) and, in a hand-written numpy copy, up to
+140 µs, swinging from 150 µs (0.20). Compile refuses steps longer than tau_I / 2 = 125 µs, so every
+step it accepts is stable for this circuit (a coincidence of these parameters, not a guarantee of
+that check). Exponential Euler for the leak (``r += (1 - exp(-dt/tau)) (f - r)``) does not help: it
+treats each cell's own decay exactly but not the E–I coupling, and swings even more (0.41 at
+0.1 ms). The fixed points are those of the equations for any step (the step only changes how they
+are approached); the tests compare against a hand-written semi-implicit Euler and a 25 µs step.
 
 What the paper leaves open, and the values chosen here (tuned with the test in
 ``tests/unit/test_ring_attractor.py``: two equal cues at 90° (sigma 40°) and 155° (sigma 35°),
@@ -33,6 +48,24 @@ whose inverse-variance weighted mean is 126.8°):
 - Settling time 0.2 s (:data:`SETTLE_S`, 2000 steps of 0.1 ms): the bump is within 0.01° of its
   fixed point after 0.05 s and within 1e-5° after 0.1 s. Without cues the bump persists (it is an
   attractor), and when the cue jumps elsewhere the bump follows it.
+
+Without a cue the bump does not stay where the cue left it: it drifts to the nearest *midpoint
+between two cells*, ``2 pi (i + 1/2) / N`` (an even number of cells active). For N = 32 these lie at
+5.625° + k 11.25°. A 40° cue at 17° leaves the bump at 16.97°; 1 s after the cue is switched off it
+is at 16.875° (0.125° from the cue) and stays there (same at 3 s). Cues at 12°, 14°, 16°, 19° and
+21° all end at 16.875° within 1 s, so the remembered heading is quantised to the 11.25° grid of
+midpoints, up to 5.6° off. A cell's own angle is an equilibrium too, but an unstable one: a cue at
+exactly 22.5°, 45° or 90° leaves the bump there for 1 s and on a neighbouring midpoint after 3 s
+(28.125°, 50.625°, 84.375°; the side is set by rounding). The same with a 25 µs step and with a
+hand-written explicit Euler of the equations at 20 µs (17° -> 16.875°). The earlier explicit 0.1 ms
+step, whose I cell oscillated, drifted to the nearest cell instead (17° -> 22.5° after 3 s): an
+artefact of the oscillation. Measured with::
+
+    python -c "import numpy as np; from brains.ring import *; s = ring_attractor().compile(batch=1); \
+    settle(s, gaussian_cue(np.deg2rad(17), np.deg2rad(40))); \
+    print(np.rad2deg(settle(s, np.zeros(N_CELLS), duration_s=3.0)))"
+
+  (prints [16.875]); ``tests/unit/test_ring_attractor.py`` checks it.
 """
 
 from __future__ import annotations
@@ -77,9 +110,10 @@ def ring_attractor(
 ) -> Circuit:
     """Sun et al.'s ring attractor: ``n_cells`` excitatory cells ``E`` and one inhibitory cell ``I``.
 
-    Compile it (``compile`` defaults to ``dt_s=DT_S``, 0.1 ms, the paper's Euler step, and refuses
-    steps longer than half of tau_I) and step it with the cue vector on the ``cues`` port for about
-    :data:`SETTLE_S`; read the bump with :func:`bump_heading_rad` (or do both with :func:`settle`).
+    Compile it (``compile`` defaults to ``dt_s=DT_S``, 0.1 ms, the paper's step, and refuses
+    steps longer than half of tau_I; see the module docstring for why E -> I is undelayed) and step
+    it with the cue vector on the ``cues`` port for about :data:`SETTLE_S`; read the bump with
+    :func:`bump_heading_rad` (or do both with :func:`settle`).
 
     Parameters
     ----------
@@ -130,7 +164,8 @@ def ring_attractor(
     circuit.connect("E", "E", rule="gaussian_ring", rule_params={"sigma_rad": float(sigma_rad)},
                     gain=w_ee / n_cells, delay=True)
     circuit.connect("I", "E", weights=np.full((n_cells, 1), float(w_ei)), delay=True)
-    circuit.connect("E", "I", rule="all_to_all", gain=w_ie / n_cells, delay=True)
+    # Undelayed: I reads this step's E (semi-implicit Euler), which keeps the E-I loop stable at 0.1 ms.
+    circuit.connect("E", "I", rule="all_to_all", gain=w_ie / n_cells, delay=False)
     circuit.connect("I", "I", weights=[[float(w_ii)]], delay=True)
     return circuit
 

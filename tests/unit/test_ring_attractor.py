@@ -7,7 +7,7 @@ import pytest
 
 from brains import bump_heading_rad, ring_attractor
 from brains.ring import CUE_AMPLITUDE, DT_S, N_CELLS, SETTLE_S, gaussian_cue, settle
-from neuronav import CircuitError, ConfigError, PortError
+from neuronav import Circuit, CircuitError, ConfigError, PortError, SensorSpec
 
 
 def _wrap_deg(angle_rad: np.ndarray) -> np.ndarray:
@@ -78,8 +78,9 @@ def test_bump_stays_finite_and_bounded():
     assert np.all(sim.rates("E")[2] == 0.0) and sim.rates("I")[2, 0] == 0.0  # no cue: stays silent
 
 
-def test_graph_integrates_the_equations_by_euler():
-    """One compiled step per hand-written Euler step of Sun et al.'s equations, all from the state at t."""
+def test_graph_integrates_the_equations_by_semi_implicit_euler():
+    """One compiled step per hand-written step of Sun et al.'s equations: E by Euler from the state at t,
+    then u by Euler from the new E and the old u."""
     n = N_CELLS
     sim = ring_attractor().compile(batch=1, dt_s=DT_S)
     cues = _two_cues()
@@ -89,12 +90,105 @@ def test_graph_integrates_the_equations_by_euler():
     c, u = np.zeros(n), 0.0
     for _ in range(300):
         sim.step({"cues": cues[None, :]})
-        dc = (-c + np.maximum(-1.5 + w_ee @ c - 6.0 * u + cues, 0.0)) / 5e-3
-        du = (-u + max(-7.5 + 60.0 / n * c.sum() - u, 0.0)) / 2.5e-4
-        c, u = c + DT_S * dc, u + DT_S * du
+        c = c + DT_S / 5e-3 * (-c + np.maximum(-1.5 + w_ee @ c - 6.0 * u + cues, 0.0))
+        u = u + DT_S / 2.5e-4 * (-u + max(-7.5 + 60.0 / n * c.sum() - u, 0.0))
     np.testing.assert_allclose(sim.rates("E")[0], c, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(sim.rates("I")[0, 0], u, rtol=1e-10, atol=1e-12)
     assert c.max() > 0.1  # the comparison is not between two silent rings
+
+
+def _explicit_euler_ring():
+    """The same ring with E -> I delayed too: plain explicit Euler, the old integration."""
+    circuit = ring_attractor()
+    circuit.graph.edges["E", "I"]["delay"] = True
+    return circuit
+
+
+def _cue_off_trace(circuit, dt_s: float, cue_deg: float, off_s: float = 0.5, last_s: float = 0.02):
+    """Cue for SETTLE_S, then ``off_s`` without; the I rate and bump (deg) over the last ``last_s``."""
+    sim = circuit.compile(batch=1, dt_s=dt_s)
+    settle(sim, gaussian_cue(np.deg2rad(cue_deg), np.deg2rad(40.0)))
+    n_off, n_last = int(round(off_s / dt_s)), int(round(last_s / dt_s))
+    inhibition, bump = [], []
+    for k in range(n_off):
+        sim.step({"cues": np.zeros((1, N_CELLS))})
+        if k >= n_off - n_last:
+            inhibition.append(sim.rates("I")[0, 0])
+            bump.append(_wrap_deg(bump_heading_rad(sim.rates("E")))[0])
+    return sim, np.array(inhibition), np.array(bump)
+
+
+@pytest.mark.parametrize("dt_s", [DT_S, 1.25e-4])
+def test_cue_off_state_is_steady_at_every_step_compile_accepts(dt_s):
+    # 5.625 deg: a midpoint between two cells, where the cue-less bump rests (see the drift test)
+    sim, inhibition, bump = _cue_off_trace(ring_attractor(), dt_s, 5.625)
+    assert np.ptp(inhibition) < 1e-9  # the I cell does not swing (plain Euler at 0.1 ms: 0.36)
+    assert abs(inhibition[-1] - 0.73225) < 1e-5  # (0.73211 for a bump centred on a cell)
+    assert np.ptp(bump) < 1e-9 and abs(bump[-1] - 5.625) < 1e-6  # the bump stays put
+    # ... and it rests at a fixed point of the equations, not merely a slow part of a cycle
+    n = N_CELLS
+    theta = 2 * np.pi * np.arange(n) / n
+    d = np.angle(np.exp(1j * (theta[:, None] - theta[None, :])))
+    w_ee = 45.0 / n * np.exp(-(d**2) / (2 * np.deg2rad(125.0) ** 2))
+    c, u = sim.rates("E")[0], sim.rates("I")[0, 0]
+    np.testing.assert_allclose(c, np.maximum(-1.5 + w_ee @ c - 6.0 * u, 0.0), atol=1e-9)
+    assert abs(u - max(-7.5 + 60.0 / n * c.sum() - u, 0.0)) < 1e-9
+    assert c.max() > 0.3
+
+
+def test_plain_euler_swings_at_the_default_step_and_not_at_50_us():
+    """Why E -> I is undelayed: plain explicit Euler's E-I loop swings at 0.1 ms (0.59 to 0.94)."""
+    _, swinging, _ = _cue_off_trace(_explicit_euler_ring(), DT_S, 5.625)
+    assert 0.3 < np.ptp(swinging) < 0.4
+    assert swinging.min() < 0.6 and swinging.max() > 0.9
+    _, steady, _ = _cue_off_trace(_explicit_euler_ring(), 5e-5, 5.625)
+    assert np.ptp(steady) < 1e-9
+
+
+def test_cue_between_cells_drifts_to_the_nearest_midpoint_between_cells():
+    """Documented in brains/ring.py: without a cue the bump rests between two cells (16.875 deg here)."""
+    cues_deg = np.array([12.0, 14.0, 16.0, 17.0, 19.0, 21.0])
+    sim = ring_attractor().compile(batch=cues_deg.size, dt_s=DT_S)
+    on = _wrap_deg(settle(sim, gaussian_cue(np.deg2rad(cues_deg), np.deg2rad(40.0))))
+    assert np.abs(on - cues_deg).max() < 1.0  # with the cue on the bump follows it
+    assert abs(on[3] - 16.97) < 0.01
+    after_1_s = _wrap_deg(settle(sim, np.zeros(N_CELLS), duration_s=1.0))
+    np.testing.assert_allclose(after_1_s, 16.875, atol=1e-3)
+    after_3_s = _wrap_deg(settle(sim, np.zeros(N_CELLS), duration_s=2.0))
+    np.testing.assert_allclose(after_3_s, 16.875, atol=1e-6)
+    assert abs(after_3_s[3] - 17.0) == pytest.approx(0.125, abs=1e-6)
+
+
+def test_drift_to_the_midpoint_is_the_equations_not_the_step():
+    """A 25 us step, by plain explicit Euler (stable there), ends at the same midpoint for a 17 deg cue."""
+    sim = _explicit_euler_ring().compile(batch=1, dt_s=2.5e-5)
+    settle(sim, gaussian_cue(np.deg2rad(17.0), np.deg2rad(40.0)))
+    assert abs(_wrap_deg(settle(sim, np.zeros(N_CELLS), duration_s=1.0))[0] - 16.875) < 1e-3
+
+
+def test_the_compile_rule_is_the_no_overshoot_bound_of_a_self_inhibited_cell():
+    """check_leaky_step's claim: a cell with self-weight -1 and its leak (Sun's I cell) overshoots only past tau/2."""
+    tau_s = 1e-3
+    circuit = Circuit("one_cell")
+    circuit.add_input("x", 1, ports=[SensorSpec("x", (1,), "")])
+    circuit.add_population("r", 1, kind="leaky", activation="relu", tau_s=tau_s)
+    circuit.connect("x", "r", weights=[[1.0]])
+    circuit.connect("r", "r", weights=[[-1.0]])  # delayed: reads the state at the start of the step
+    target = 0.5  # r = relu(1 - r)
+    for dt_s in (0.3 * tau_s, 0.5 * tau_s):
+        sim = circuit.compile(batch=1, dt_s=dt_s)
+        trace = []
+        for _ in range(40):
+            sim.step({"x": np.ones((1, 1))})
+            trace.append(sim.rates("r")[0, 0])
+        assert np.all(np.diff(trace) >= 0) and np.all(np.array(trace) <= target + 1e-12)  # no overshoot
+        assert trace[-1] == pytest.approx(target, abs=1e-6)
+    # just past tau/2 the same step would overshoot: 1 - 2 dt/tau < 0; compile refuses it
+    with pytest.raises(CircuitError, match="longer than half its tau_s"):
+        circuit.compile(batch=1, dt_s=0.51 * tau_s)
+    r, dt_s = 0.0, 0.51 * tau_s
+    r = r + dt_s / tau_s * (max(1.0 - r, 0.0) - r)
+    assert r > target  # the hand-written step at 0.51 tau already overshoots
 
 
 def test_same_seed_same_numbers():
