@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brains import copy_and_shift, stone2017
+from brains import copy_and_shift, steering, stone2017
 from brains.steering import MAX_SHIFT, shift_toward, shift_weights
 from neuronav import ConfigError, NeuronavError, PortError
 
@@ -39,16 +39,119 @@ def _closed_loop(target_rad: float, noise: float = 0.0, steps: int = 40, **optio
     return np.array(errors)
 
 
-def test_motor_sign_follows_shift_and_grows_up_to_two_columns():
-    motors = {s: _motor(s) for s in range(-MAX_SHIFT, MAX_SHIFT + 1)}
+SETTLE_TOLERANCE = 1e-13  # rad: the motor has settled once a step changes it by less
+MAX_SETTLE_STEPS = 200
+SHIFTS = range(-MAX_SHIFT, MAX_SHIFT + 1)
+
+
+def _settled_motor(shift: int) -> tuple[np.ndarray, int]:
+    """Motor at HEADINGS_RAD and a constant shift, stepped until it stops changing; and the steps taken."""
+    sim = copy_and_shift(noise=0.0).compile(batch=HEADINGS_RAD.size)
+    shifts = np.full((HEADINGS_RAD.size, 1), float(shift))
+    previous = None
+    for step in range(1, MAX_SETTLE_STEPS + 1):
+        motor = sim.step({"heading": HEADINGS_RAD[:, None], "shift": shifts})["motor"][:, 0].copy()
+        if previous is not None and np.abs(motor - previous).max() < SETTLE_TOLERANCE:
+            return motor, step
+        previous = motor
+    raise AssertionError(f"shift {shift}: the motor has not settled after {MAX_SETTLE_STEPS} steps")
+
+
+@pytest.fixture(scope="module")
+def settled():
+    """{shift: (settled motor per heading, steps it took)} for every allowed shift."""
+    return {s: _settled_motor(s) for s in SHIFTS}
+
+
+def _sigmoid(x):
+    return 1.0 / (1.0 + np.exp(-x))
+
+
+def _reference_motor(heading_rad: float, shift: int) -> float:
+    """The settled motor, by hand from the model's equations (Stone et al. 2017's compass and steering,
+    with the TB1 bump rolled by ``shift`` columns as the goal), iterating TB1 to its fixed point."""
+    preferred = (np.arange(16) % 8) * np.pi / 4
+    tl2 = _sigmoid(6.8 * np.cos(heading_rad - preferred) - 3.0)
+    cl1 = _sigmoid(0.5 - 3.0 * tl2)
+    column = np.arange(8)
+    inhibition = (1.0 - np.cos(np.pi / 4 * (column[:, None] - column[None, :]))) / 2.0
+    tb1 = np.zeros(8)
+    for _ in range(1000):
+        new_tb1 = _sigmoid(5.0 * (0.667 * (cl1[:8] + cl1[8:]) - 0.333 * inhibition @ tb1))
+        converged = np.abs(new_tb1 - tb1).max() < 1e-15
+        tb1 = new_tb1
+        if converged:
+            break
+    else:
+        raise AssertionError("reference TB1 did not converge")
+    goal = np.tile(np.roll(tb1, shift), 2)  # goal cell j holds TB1 column (j - shift) mod 8
+    pontine = _sigmoid(5.0 * goal - 2.5)
+    # CPU1 cell j reads the other hemisphere's goal and Pontine cells, offset by one and three columns
+    cell = np.arange(16)
+    goal_cell = np.where(cell < 8, 8 + (cell - 1) % 8, (cell - 7) % 8)
+    pontine_cell = np.where(cell < 8, 8 + (cell + 3) % 8, (cell - 3) % 8)
+    cpu1 = _sigmoid(7.5 * (0.5 * goal[goal_cell] - 0.5 * pontine[pontine_cell] - tb1[cell % 8]) + 1.0)
+    return 0.25 * (cpu1[:8].sum() - cpu1[8:].sum())
+
+
+def test_settled_motor_matches_a_hand_written_reference_at_every_heading_and_shift(settled):
+    for shift in SHIFTS:
+        motor, steps = settled[shift]
+        assert steps > 10, shift  # it really had to settle (TB1's delayed self-inhibition)
+        reference = np.array([_reference_motor(h, shift) for h in HEADINGS_RAD])
+        np.testing.assert_allclose(motor, reference, rtol=0, atol=1e-12, err_msg=f"shift {shift}")
+
+
+def test_steering_curve_peaks_at_one_column(settled):
+    motor = {s: settled[s][0] for s in SHIFTS}
     for s in range(1, MAX_SHIFT + 1):
-        assert np.all(motors[s] > 0.05), s
-        assert np.all(motors[-s] < -0.05), -s
-    # monotonic over -2..2 at every heading
-    for s in range(-2, 2):
-        assert np.all(motors[s + 1] > motors[s])
-    # shift 0: small next to shift +-2
-    assert np.abs(motors[0]).max() < 0.2 * min(np.abs(motors[2]).min(), np.abs(motors[-2]).min())
+        assert np.all(motor[s] > 0.15), s
+        # mirror image: motor(-s, theta) = -motor(s, -theta)
+        mirrored = -motor[s][(-np.arange(HEADINGS_RAD.size)) % HEADINGS_RAD.size]
+        np.testing.assert_allclose(motor[-s], mirrored, rtol=0, atol=1e-12)
+    # the turn is fastest for one column, at every heading, and slows for two and three
+    assert np.all(motor[1] > motor[2]) and np.all(motor[2] > motor[3])
+    # shift 0: a small heading-dependent bias next to any turn
+    assert np.abs(motor[0]).max() < 0.05 * motor[3].min()
+    # the response repeats every 45 deg of heading (HEADINGS_RAD are 15 deg apart)
+    for s in SHIFTS:
+        rows = motor[s].reshape(8, 3)
+        np.testing.assert_allclose(rows, np.broadcast_to(rows[0], rows.shape), rtol=0, atol=1e-12)
+
+
+def test_docstring_numbers_are_the_settled_curve(settled):
+    doc = steering.__doc__
+    for s in (1, 2, 3, 0):
+        motor = settled[s][0]
+        line = f"    shift {s:2d}: {motor.min():+.3f} to {motor.max():+.3f}"
+        assert line in doc, line
+    steps = [settled[s][1] for s in SHIFTS]
+    assert f"which takes {min(steps)} to {max(steps)} steps" in doc
+    early = {s: _motor(s) for s in (1, 2, 3)}
+    assert "(1: {:.2f}–{:.2f}, 2: {:.2f}–{:.2f}, 3: {:.2f}–{:.2f})".format(
+        *[v for s in (1, 2, 3) for v in (early[s].min(), early[s].max())]) in doc
+    assert early[2].max() > early[1].max()  # after 5 steps it only looks like two columns turn fastest
+    assert f"(at most {np.rad2deg(np.abs(settled[0][0]).max()):.2f}° per step)" in doc
+
+
+def test_closed_loop_docstring_numbers():
+    band_deg = 22.5
+    entered, after = [], []
+    for target_rad in TARGETS_RAD:
+        errors = np.rad2deg(np.abs(_closed_loop(target_rad, steps=200)))
+        for agent in range(errors.shape[1]):
+            first = int(np.argmax(errors[:, agent] <= band_deg))
+            assert errors[first, agent] <= band_deg
+            entered.append(first + 1)
+            after.append(errors[first:, agent].max())
+    assert max(entered) == 12 and "within 12 steps from every start" in steering.__doc__
+    assert f"stays within {max(after):.2f}° of the target" in steering.__doc__
+    shift0_bias_deg = np.rad2deg(np.abs(_motor(0, steps=100)).max())
+    assert max(after) <= band_deg + shift0_bias_deg + 1e-9  # past the edge by at most one step of bias
+    noisy = np.rad2deg(np.abs(_closed_loop(1.0, noise=0.1, steps=200)))
+    assert noisy[19:].max() < 35.0 and "within 35° of the target from step 20 to 200" in steering.__doc__
+    inverted = np.rad2deg(np.abs(_closed_loop(1.0, invert_goal=True, steps=40)))[-1]
+    assert np.sum(inverted > 180.0 - 26.0) == 22 and "22 of 24 starts end within 26° of it" in steering.__doc__
 
 
 def test_constant_shift_keeps_turning_in_its_direction():
