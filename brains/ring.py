@@ -13,11 +13,12 @@ Cell i prefers the angle ``2 pi i / N``.
 
 Integration: semi-implicit Euler. Every connection is delayed (reads the state at the start of the
 step) except E -> I: each step first updates E from the old E and u by Euler, then u from the *new*
-E and the old u. Plain explicit Euler (E -> I delayed too) is not stable at 0.1 ms: the E–I loop is
-a damped oscillation (period about 1 ms) whose Euler step grows once dt exceeds about 68 µs, so after
-the cue is switched off the I cell swings between 0.59 and 0.94 for ever (peak-to-peak 0.36)
-instead of resting at 0.7321. Measured on the cue-off state (a 40° cue at 0° for 0.2 s, then 0.5 s
-without cue; peak-to-peak of u over the last 20 ms), explicit Euler is steady up to 65 µs (0 at 50
+E and the old u. Plain explicit Euler (E -> I delayed too) is not stable at 0.1 ms: linearised at
+the cue-off bump (11 E cells active), the E–I loop is a damped oscillation with eigenvalues
+-2670 ± 8400i /s (period 0.75 ms), and Euler keeps such a pair only for dt < -2 Re λ / |λ|² = 69 µs.
+So after the cue is switched off the I cell swings between 0.59 and 0.94 for ever (peak-to-peak
+0.36, period 0.86 ms) instead of resting at 0.7321. Measured on the cue-off state (a 40° cue at 0°
+for 0.2 s, then 0.5 s without cue; peak-to-peak of u over the last 20 ms), explicit Euler is steady up to 65 µs (0 at 50
 and 65 µs) and swings from 70 µs (0.037; 0.36 at 100 µs, 0.55 at 125 µs); the semi-implicit step
 is steady at 100 and 125 µs (peak-to-peak 0 and 5e-15) and, in a hand-written numpy copy, up to
 140 µs, swinging from 150 µs (0.20). Compile refuses steps longer than tau_I / 2 = 125 µs, so every
@@ -50,22 +51,23 @@ whose inverse-variance weighted mean is 126.8°):
   attractor), and when the cue jumps elsewhere the bump follows it.
 
 Without a cue the bump does not stay where the cue left it: it drifts to the nearest *midpoint
-between two cells*, ``2 pi (i + 1/2) / N`` (an even number of cells active). For N = 32 these lie at
-5.625° + k 11.25°. A 40° cue at 17° leaves the bump at 16.97°; 1 s after the cue is switched off it
-is at 16.875° (0.125° from the cue) and stays there (same at 3 s). Cues at 12°, 14°, 16°, 19° and
-21° all end at 16.875° within 1 s, so the remembered heading is quantised to the 11.25° grid of
-midpoints, up to 5.6° off. A cell's own angle is an equilibrium too, but an unstable one: a cue at
-exactly 22.5°, 45° or 90° leaves the bump there for 1 s and on a neighbouring midpoint after 3 s
-(28.125°, 50.625°, 84.375°; the side is set by rounding). The same with a 25 µs step and with a
-hand-written explicit Euler of the equations at 20 µs (17° -> 16.875°). The earlier explicit 0.1 ms
-step, whose I cell oscillated, drifted to the nearest cell instead (17° -> 22.5° after 3 s): an
-artefact of the oscillation. Measured with::
+between two cells*, ``2 pi (i + 1/2) / N`` (10 cells active there, against 11 for a bump centred on
+a cell). For N = 32 these lie at 5.625° + k 11.25°. A 40° cue at 17° leaves the bump at 16.97°; 1 s
+after the cue is switched off it is at 16.875° (0.125° from the cue) and stays there (same at 3 s).
+Cues at 12°, 14°, 16°, 19° and 21° all end at 16.875° within 1 s, so the remembered heading is
+quantised to the 11.25° grid of midpoints, up to 5.6° off. A cell's own angle is an equilibrium too,
+but an unstable one (the linearisation there has an eigenvalue of +18 /s): a cue at exactly 22.5°,
+45° or 90° leaves the bump there for 1 s and on a neighbouring midpoint after 3 s (28.125°, 50.625°,
+84.375°; the side is set by rounding). The same with a 25 µs step and with a hand-written explicit
+Euler of the equations at 20 µs (17° -> 16.875°). The earlier explicit 0.1 ms step, whose I cell
+oscillated, drifted to the nearest cell instead (17° -> 22.5° after 3 s): an artefact of the
+oscillation. Measured with::
 
-    python -c "import numpy as np; from brains.ring import *; s = ring_attractor().compile(batch=1); \
-    settle(s, gaussian_cue(np.deg2rad(17), np.deg2rad(40))); \
+    python -c "import numpy as np; from brains.ring import *; s = ring_attractor().compile(batch=1); \\
+    settle(s, gaussian_cue(np.deg2rad(17), np.deg2rad(40))); \\
     print(np.rad2deg(settle(s, np.zeros(N_CELLS), duration_s=3.0)))"
 
-  (prints [16.875]); ``tests/unit/test_ring_attractor.py`` checks it.
+(it prints [16.875]); ``tests/unit/test_ring_attractor.py`` checks it.
 """
 
 from __future__ import annotations
