@@ -2,20 +2,18 @@
 
 Positions are those of the body centre (see :mod:`scenarios.locomotion`); the climb figure also shows the
 root (the front of the thorax), which rises more when the body rears up against the wall.
+
+Each ``*_figure`` function draws one figure and returns it; :func:`write_figures` saves them.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from bodies.desert_ant import LEGS  # noqa: E402
-from neuronav.plotting import save  # noqa: E402
+from bodies.desert_ant import LEGS
+from neuronav.plotting import new_figure, save, trial_colour
 
 # A claw pressing on the ground with more than this counts as touching in the gait diagram.
 STANCE_FORCE_N = 1.0
@@ -27,11 +25,11 @@ def write_figures(result, config, out_dir: Path) -> list[Path]:
     ts = result.timeseries
     out_dir = Path(out_dir)
     time_s = np.arange(ts["mr_angles_rad"].shape[1]) * config.control_dt_s
-    paths = [_trajectory(result, config, out_dir / "trajectory.png"),
-             _leg_traces(ts, config, time_s, out_dir / "leg_traces.png"),
-             _gait_diagram(ts, config, time_s, out_dir / "gait_diagram.png")]
+    paths = [save(trajectory_figure(result, config), out_dir / "trajectory.png"),
+             save(leg_traces_figure(ts, config, time_s), out_dir / "leg_traces.png"),
+             save(gait_diagram_figure(ts, config, time_s), out_dir / "gait_diagram.png")]
     if config.terrain == "wall":
-        paths.append(_climb(result, config, out_dir / "climb.png"))
+        paths.append(save(climb_figure(result, config), out_dir / "climb.png"))
     return paths
 
 
@@ -40,13 +38,14 @@ def _title(config) -> str:
     return f"{config.gait} gait, {config.terrain}, turn {config.turn:+.2f}, stride {config.stride_deg:g}°{extra}"
 
 
-def _trajectory(result, config, path: Path) -> Path:
+def trajectory_figure(result, config):
     """Top view of the body centre's path per trial (start: black dot, end: cross)."""
     ts = result.timeseries
-    fig, ax = plt.subplots(figsize=(6, 6))
+    fig, ax = new_figure((6, 6))
     for i, trial in enumerate(result.trials):
         xy = ts["position_m"][i][:, :2]
-        ax.plot(xy[:, 0], xy[:, 1], lw=1, label=f"trial {trial['trial']}" if i < MAX_LABELLED_TRIALS else None)
+        ax.plot(xy[:, 0], xy[:, 1], lw=1, color=trial_colour(i),
+                label=f"trial {trial['trial']}" if i < MAX_LABELLED_TRIALS else None)
         ax.plot(*xy[0], "ko", ms=3)
         ax.plot(*xy[-1], "kx", ms=5)
     if config.terrain == "wall":
@@ -56,13 +55,12 @@ def _trajectory(result, config, path: Path) -> Path:
     ax.set_ylabel("y (m)")
     ax.set_title(_title(config), fontsize=10)
     ax.legend(fontsize=7)
-    save(fig, path)
-    return path
+    return fig
 
 
-def _leg_traces(ts, config, time_s, path: Path) -> Path:
+def leg_traces_figure(ts, config, time_s):
     """Joint angles and torques of the middle-right leg (the paper's Fig. 2a,b, right), trial 0."""
-    fig, axes = plt.subplots(2, 1, figsize=(8, 5), sharex=True)
+    fig, axes = new_figure((8, 5), 2, 1, sharex=True)
     for j, joint in enumerate(("ThCz", "CTr", "FTi")):
         axes[0].plot(time_s, np.degrees(ts["mr_angles_rad"][0, :, j]), label=joint)
         axes[1].plot(time_s, ts["mr_torques_nm"][0, :, j], label=joint)
@@ -71,8 +69,7 @@ def _leg_traces(ts, config, time_s, path: Path) -> Path:
     axes[1].set_xlabel("time (s)")
     axes[0].set_title(f"middle-right leg, trial 0 — {_title(config)}", fontsize=10)
     axes[0].legend(fontsize=7, ncol=3)
-    save(fig, path)
-    return path
+    return fig
 
 
 def _bars(ax, on: np.ndarray, time_s: np.ndarray, dt_s: float, row: float, height: float, **style) -> None:
@@ -82,9 +79,9 @@ def _bars(ax, on: np.ndarray, time_s: np.ndarray, dt_s: float, row: float, heigh
         ax.broken_barh(spans, (row - height / 2, height), **style)
 
 
-def _gait_diagram(ts, config, time_s, path: Path) -> Path:
+def gait_diagram_figure(ts, config, time_s):
     """Per leg (FL at the top): commanded stance (grey) and measured claw contact (black), trial 0."""
-    fig, ax = plt.subplots(figsize=(8, 3))
+    fig, ax = new_figure((8, 3))
     touching = ts["claw_force_n"][0] > STANCE_FORCE_N  # (steps, legs)
     stance = ~ts["swing"][0] if "swing" in ts else None
     for leg in range(len(LEGS)):
@@ -97,34 +94,34 @@ def _gait_diagram(ts, config, time_s, path: Path) -> Path:
     ax.set_xlabel("time (s)")
     ax.set_title(f"gait diagram, trial 0 (grey: commanded stance; black: claw touching) — {config.gait}",
                  fontsize=10)
-    save(fig, path)
-    return path
+    return fig
 
 
-def _climb(result, config, path: Path) -> Path:
-    """Side view (x, z) of the centre and the root, and their heights above the start over time."""
+def climb_figure(result, config):
+    """Side view (x, z) of the centre and the root, and their heights above the start over time.
+
+    Colour: trial; solid: body centre; dashed: root (front of the thorax). One legend, on the
+    height panel, names each trial's colour by the trial's own centre line.
+    """
     ts = result.timeseries
-    fig, (side, height) = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [1, 1.6]})
+    fig, (side, height) = new_figure((11, 4), 1, 2, gridspec_kw={"width_ratios": [1, 1.6]})
     full_time = np.arange(ts["position_m"].shape[1]) * config.control_dt_s
     for i in range(len(result.trials)):
         centre, root = ts["position_m"][i], ts["root_m"][i]
-        colour = f"C{i % 10}"
-        side.plot(centre[:, 0], centre[:, 2], color=colour, lw=1, label="centre" if i == 0 else None)
-        side.plot(root[:, 0], root[:, 2], color=colour, lw=1, ls="--",
-                  label="root (front of thorax)" if i == 0 else None)
+        colour = trial_colour(i)
+        side.plot(centre[:, 0], centre[:, 2], color=colour, lw=1, gid=f"trial {i} centre")
+        side.plot(root[:, 0], root[:, 2], color=colour, lw=1, ls="--", gid=f"trial {i} root")
         height.plot(full_time, centre[:, 2] - centre[0, 2], color=colour, lw=1,
-                    label=f"trial {i}" if i < MAX_LABELLED_TRIALS else None)
-        height.plot(full_time, root[:, 2] - root[0, 2], color=colour, lw=0.8, ls="--")
+                    label=f"trial {i}" if i < MAX_LABELLED_TRIALS else None, gid=f"trial {i} centre")
+        height.plot(full_time, root[:, 2] - root[0, 2], color=colour, lw=0.8, ls="--", gid=f"trial {i} root")
     side.axvline(1.0, color="0.3", lw=3)
     side.axhline(0.0, color="0.6", lw=1)
     side.set_xlabel("x (m)")
     side.set_ylabel("z (m)")
-    side.set_title("side view (wall at x = 1 m)", fontsize=10)
-    side.legend(fontsize=7)
+    side.set_title("side view (wall at x = 1 m; solid: centre, dashed: root)", fontsize=10)
     height.axhline(0.0, color="0.6", lw=1)
     height.set_xlabel("time (s)")
     height.set_ylabel("height above start (m)")
     height.set_title(f"climb, adhesion {config.adhesion_n:g} N (solid: centre, dashed: root)", fontsize=10)
     height.legend(fontsize=7)
-    save(fig, path)
-    return path
+    return fig

@@ -1,85 +1,97 @@
-"""Figures of the path-integration scenario: trajectories, CPU4 memory over time, TB1 vs heading."""
+"""Figures of the path-integration scenario: trajectories, CPU4 memory over time, TB1 vs heading.
+
+Each ``*_figure`` function draws one figure and returns it (a :class:`matplotlib.figure.Figure`);
+:func:`write_figures` saves them. matplotlib is imported only when a figure is drawn.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from brains.cx import stone2017  # noqa: E402
-from neuronav.plotting import plot_circuit, plot_connectivity, save  # noqa: E402
+from brains.cx import stone2017
+from neuronav.plotting import break_at_wraps, new_figure, plot_circuit, plot_connectivity, save, trial_colour
 
 MAX_TRAJECTORIES = 200
 
 
 def write_figures(result, config, out_dir: Path) -> list[Path]:
     """Write trajectories.png, cpu4_activity.png, tb1_heading.png and the circuit plots."""
-    paths = []
-    ts = result.timeseries
-    k = config.record_every
-    turn = config.outbound_steps // k
+    out_dir = Path(out_dir)
+    paths = [save(trajectories_figure(result, config), out_dir / "trajectories.png")]
+    if result.timeseries["cpu4_memory"].shape[0]:
+        paths.append(save(cpu4_figure(result, config), out_dir / "cpu4_activity.png", tight=False))
+        paths.append(save(tb1_figure(result, config), out_dir / "tb1_heading.png"))
+    circuit = stone2017(noise=config.noise)
+    fig, ax = new_figure((8, 7))
+    plot_connectivity(circuit, ax)
+    paths.append(save(fig, out_dir / "circuit_connectivity.png"))
+    fig, ax = new_figure((9, 5))
+    plot_circuit(circuit, ax)
+    paths.append(save(fig, out_dir / "circuit_diagram.png"))
+    return paths
 
-    fig, ax = plt.subplots(figsize=(7, 7))
+
+def trajectories_figure(result, config):
+    """Top view: each recorded trial in its own colour, outbound dashed and homing solid."""
+    from matplotlib.patches import Circle
+
+    ts = result.timeseries
+    turn = config.outbound_steps // config.record_every
+    fig, ax = new_figure((7, 7))
     ok = [t["trial"] for t in result.trials if t.get("status") == "ok"]
-    for i in ok[:MAX_TRAJECTORIES]:
+    for n, i in enumerate(ok[:MAX_TRAJECTORIES]):
         path = ts["position"][i]
-        ax.plot(path[: turn + 1, 0], path[: turn + 1, 1], color="tab:blue", lw=0.5, alpha=0.5)
-        ax.plot(path[turn:, 0], path[turn:, 1], color="tab:red", lw=0.5, alpha=0.5)
-    ax.add_patch(plt.Circle((0, 0), config.success_radius, fill=False, color="k", ls="--"))
+        colour = trial_colour(n)
+        ax.plot(path[: turn + 1, 0], path[: turn + 1, 1], color=colour, lw=0.6, ls="--", alpha=0.7,
+                label="outbound (dashed)" if n == 0 else None, gid=f"trial {i} outbound")
+        ax.plot(path[turn:, 0], path[turn:, 1], color=colour, lw=0.8, alpha=0.8,
+                label="homing, CX (solid)" if n == 0 else None, gid=f"trial {i} homing")
+    ax.add_patch(Circle((0, 0), config.success_radius, fill=False, color="k", ls="--"))
     ax.plot(0, 0, "k*", ms=12, label="nest")
-    ax.plot([], [], color="tab:blue", label="outbound")
-    ax.plot([], [], color="tab:red", label="homing (CX)")
     success = np.mean([t["success"] for t in result.trials])
-    ax.set_title(f"{len(result.trials)} trials, success {100 * success:.1f}%, "
-                 f"tortuosity {result.aggregates.get('tortuosity', float('nan')):.3f}")
+    ax.set_title(f"{len(result.trials)} trials (colour: trial), success {100 * success:.1f}%, "
+                 f"tortuosity {result.aggregates.get('tortuosity', float('nan')):.3f}", fontsize=10)
     ax.set_aspect("equal")
     ax.set_xlabel("x (steps)")
     ax.set_ylabel("y (steps)")
     ax.legend(loc="upper right")
-    paths.append(out_dir / "trajectories.png")
-    save(fig, paths[-1])
+    return fig
 
-    if ts["cpu4_memory"].shape[0]:
-        time = np.arange(1, ts["cpu4_memory"].shape[1] + 1) * k
-        fig, axes = plt.subplots(2, 1, figsize=(9, 5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
-        image = axes[0].imshow(ts["cpu4_memory"][0].T, aspect="auto", origin="lower", cmap="viridis",
-                               extent=(time[0], time[-1], -0.5, 15.5))
-        axes[0].axvline(config.outbound_steps, color="w", ls="--")
-        axes[0].set_ylabel("CPU4 cell")
-        axes[0].set_title("trial 0: CPU4 memory (dashed: turn back)")
-        fig.colorbar(image, ax=axes, shrink=0.6, label="memory")
-        axes[1].plot(time, np.degrees(np.angle(np.exp(1j * ts["heading_rad"][0]))), lw=0.8)
-        axes[1].axvline(config.outbound_steps, color="k", ls="--")
-        axes[1].set_ylabel("heading (deg)")
-        axes[1].set_xlabel("step")
-        paths.append(out_dir / "cpu4_activity.png")
-        fig.savefig(paths[-1], dpi=120)
-        plt.close(fig)
 
-        fig, ax = plt.subplots(figsize=(9, 3.5))
-        ax.imshow(ts["tb1_rates"][0].T, aspect="auto", origin="lower", cmap="magma",
-                  extent=(time[0], time[-1], -0.5, 7.5))
-        column = (np.mod(ts["heading_rad"][0], 2 * np.pi) / (np.pi / 4))
-        column = np.where(column > 7.5, column - 8, column)
-        ax.plot(time, column, "c.", ms=1.5, label="heading (column units)")
-        ax.set_ylabel("TB1 column")
-        ax.set_xlabel("step")
-        ax.set_title("trial 0: TB1 (inverted bump: the dark column follows the heading)")
-        ax.legend(loc="upper right", fontsize=7)
-        paths.append(out_dir / "tb1_heading.png")
-        save(fig, paths[-1])
+def cpu4_figure(result, config):
+    """Trial 0: CPU4 memory (cells x steps) above the heading (degrees, broken at ±180°)."""
+    ts = result.timeseries
+    time = np.arange(1, ts["cpu4_memory"].shape[1] + 1) * config.record_every
+    fig, axes = new_figure((9, 5), 2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    image = axes[0].imshow(ts["cpu4_memory"][0].T, aspect="auto", origin="lower", cmap="viridis",
+                           extent=(time[0], time[-1], -0.5, 15.5))
+    axes[0].axvline(config.outbound_steps, color="w", ls="--")
+    axes[0].set_ylabel("CPU4 cell")
+    axes[0].set_title("trial 0: CPU4 memory (dashed: turn back)")
+    fig.colorbar(image, ax=axes, shrink=0.6, label="memory")
+    t, heading = break_at_wraps(time, ts["heading_rad"][0])
+    axes[1].plot(t, np.degrees(heading), lw=0.8, gid="heading")
+    axes[1].axvline(config.outbound_steps, color="k", ls="--")
+    axes[1].set_ylim(-180, 180)
+    axes[1].set_ylabel("heading (deg)")
+    axes[1].set_xlabel("step")
+    return fig
 
-    circuit = stone2017(noise=config.noise)
-    fig, ax = plt.subplots(figsize=(8, 7))
-    plot_connectivity(circuit, ax)
-    paths.append(out_dir / "circuit_connectivity.png")
-    save(fig, paths[-1])
-    fig, ax = plt.subplots(figsize=(9, 5))
-    plot_circuit(circuit, ax)
-    paths.append(out_dir / "circuit_diagram.png")
-    save(fig, paths[-1])
-    return paths
+
+def tb1_figure(result, config):
+    """Trial 0: TB1 rates (columns x steps) with the heading in column units as dots."""
+    ts = result.timeseries
+    time = np.arange(1, ts["tb1_rates"].shape[1] + 1) * config.record_every
+    fig, ax = new_figure((9, 3.5))
+    ax.imshow(ts["tb1_rates"][0].T, aspect="auto", origin="lower", cmap="magma",
+              extent=(time[0], time[-1], -0.5, 7.5))
+    column = np.mod(ts["heading_rad"][0], 2 * np.pi) / (np.pi / 4)
+    column = np.where(column > 7.5, column - 8, column)
+    ax.plot(time, column, "c.", ms=1.5, label="heading (column units)")
+    ax.set_ylabel("TB1 column")
+    ax.set_xlabel("step")
+    ax.set_title("trial 0: TB1 (inverted bump: the dark column follows the heading)")
+    ax.legend(loc="upper right", fontsize=7)
+    return fig
