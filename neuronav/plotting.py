@@ -25,6 +25,7 @@ MIN_RADIUS, MAX_RADIUS = 0.12, 0.24
 # Curvatures tried in turn for an edge (control point offset, as a fraction of the edge's length).
 CURVATURES = (0.0, 0.15, -0.15, 0.3, -0.3, 0.45, -0.45, 0.6, -0.6, 0.8, -0.8, 1.0, -1.0, 1.3, -1.3)
 CLEARANCE = 1.15  # an edge keeps this many radii away from every population it does not connect
+GAP = 0.06  # an arrow starts and ends this far (data units) outside the rims it joins, heads included
 
 
 def new_figure(figsize=(6.0, 4.0), nrows: int = 1, ncols: int = 1, **subplot_kw):
@@ -153,8 +154,8 @@ def _route(p0, p1, r0, r1, curvature):
     """The curve from the edge of disc (p0, r0) to the edge of disc (p1, r1) bent by ``curvature``."""
     d = p1 - p0
     control = (p0 + p1) / 2 + curvature * np.array([d[1], -d[0]])
-    start = p0 + r0 * (control - p0) / np.linalg.norm(control - p0)
-    end = p1 + r1 * (control - p1) / np.linalg.norm(control - p1)
+    start = p0 + (r0 + GAP) * (control - p0) / np.linalg.norm(control - p0)
+    end = p1 + (r1 + GAP) * (control - p1) / np.linalg.norm(control - p1)
     return start, control, end
 
 
@@ -214,7 +215,8 @@ def plot_circuit(circuit, ax=None):
         start, control, end = edge_route(source, target, position, radius,
                                          prefer_bent=graph.has_edge(target, source))
         path = MplPath([start, control, end], [MplPath.MOVETO, MplPath.CURVE3, MplPath.CURVE3])
-        ax.add_patch(FancyArrowPatch(path=path, arrowstyle="-|>" if kind != "inhibitory" else "-[",
+        head = "-[, widthB=0.8, lengthB=0.2" if kind == "inhibitory" else "-|>"
+        ax.add_patch(FancyArrowPatch(path=path, arrowstyle=head,
                                      mutation_scale=9, color=EDGE_COLOURS[kind], lw=1.0, zorder=1,
                                      gid=f"edge:{source}->{target}"))
     loops = sorted(s for s, t in graph.edges if s == t)
