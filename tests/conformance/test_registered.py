@@ -133,6 +133,34 @@ def test_body_on_every_backend_one_second_of_random_targets(name, backend):
     np.testing.assert_array_equal(joints, again_joints)
 
 
+# Per-trial bookkeeping, not metrics.
+BOOKKEEPING = {"trial", "seed", "status", "error"}
+
+
+def assert_metrics_finite(scenario, result):
+    """Every metric of every trial (and every aggregate) is a finite number.
+
+    The only exceptions are the metrics the scenario lists in ``optional_metrics``: those it documents
+    as legitimately undefined in some trials (NaN), e.g. a time-to-arrive for an agent that never
+    arrives. Each listed name must be one of the scenario's metrics.
+    """
+    optional = set(getattr(scenario, "optional_metrics", ()))
+    names = {k for trial in result.trials for k in trial} - BOOKKEEPING
+    assert names, f"scenario {scenario.name} reports no metric"
+    unknown = optional - names - set(result.aggregates)
+    assert not unknown, f"scenario {scenario.name}: optional_metrics names no metric: {sorted(unknown)}"
+    for trial in result.trials:
+        assert set(trial) - BOOKKEEPING == names, f"trial {trial['trial']} reports other metrics than the rest"
+        for key in sorted(names - optional):
+            value = trial[key]
+            assert isinstance(value, (bool, int, float, np.number)), f"{key} = {value!r} is not a number"
+            assert np.isfinite(value), (f"scenario {scenario.name}, trial {trial['trial']}: metric {key} = {value}; "
+                                        f"list it in the scenario's optional_metrics if it may be undefined")
+    for key, value in result.aggregates.items():
+        if key not in optional:
+            assert np.isfinite(value), f"scenario {scenario.name}: aggregate {key} = {value}"
+
+
 @pytest.mark.parametrize("name", registry.names("scenario"))
 def test_scenario_runs_short_finite_and_repeats(name):
     scenario = load_scenario(name)
@@ -145,7 +173,6 @@ def test_scenario_runs_short_finite_and_repeats(name):
     for a, b in zip(first.trials, second.trials):
         for key in set(a) - set(scenario.timing_metrics):
             assert a[key] == b[key] or (a[key] != a[key] and b[key] != b[key]), key  # NaN == NaN
-        numbers = [v for v in a.values() if isinstance(v, float)]
-        assert numbers and any(np.isfinite(numbers))
+    assert_metrics_finite(scenario, first)
     for key, array in first.timeseries.items():
         np.testing.assert_array_equal(array, second.timeseries[key], err_msg=key)
