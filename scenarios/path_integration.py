@@ -95,6 +95,10 @@ class PathIntegration(Scenario):
     backends = ("kinematic", "mujoco", "pybullet")
     default_backend = "kinematic"
     timing_metrics = ("real_time_factor",)
+    # Undefined (NaN) in some trials by definition: an agent that never comes within the success
+    # radius has no homing_steps, and one that never gets closer than where it turned back has
+    # mu = 1, so no per-trial tortuosity 1 / (1 - mu).
+    optional_metrics = ("homing_steps", "tortuosity")
     records_video = True  # on backends that render: the embodied protocol films its first trial
 
     def smoke_config(self) -> dict:
