@@ -30,9 +30,11 @@ GAP = 0.06  # an arrow starts and ends this far (data units) outside the rims it
 
 def new_figure(figsize=(6.0, 4.0), nrows: int = 1, ncols: int = 1, **subplot_kw):
     """A pyplot-free Figure and its axes (as ``plt.subplots`` returns them)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=figsize)
+    FigureCanvasAgg(fig)  # a real canvas: layout reuses its renderer instead of a throw-away print
     axes = fig.subplots(nrows, ncols, **subplot_kw)
     return fig, axes
 
@@ -41,7 +43,7 @@ def save(fig, path, tight: bool = True) -> Path:
     """Lay out (unless ``tight`` is False: a figure with a shared colourbar) and write a PNG (120 dpi)."""
     if tight:
         fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, dpi=120, pil_kwargs={"compress_level": 1})
     return Path(path)
 
 
