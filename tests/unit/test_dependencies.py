@@ -1,6 +1,8 @@
 """Imports flow one way: scenarios -> {brains, bodies, backends} -> neuronav; engines only in backends/."""
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -44,3 +46,30 @@ def test_the_checker_catches_a_wrong_import(tmp_path):
     bad = tmp_path / "bad.py"
     bad.write_text("import scenarios.path_integration\nfrom mujoco import MjModel\n")
     assert imported_modules(bad) == {"scenarios", "mujoco"}
+
+
+# Heavy modules a command pays for only when it uses them: plotting (matplotlib), the time-series file
+# (h5py), the cluster (dask), the engines. Importing the CLI or a scenario (its figure module included)
+# must load none of them, so `neuronav list` and bad-input exits stay fast and a run imports each
+# only when it draws, writes, distributes or simulates.
+LAZY = {"matplotlib", "h5py", "dask", "distributed", "mujoco", "pybullet", "dm_control", "PIL"}
+EAGER_IMPORTS = ["neuronav.cli", "neuronav.plotting", "scenarios.path_integration", "scenarios.locomotion",
+                 "scenarios.embodied_homing", "scenarios.path_integration_figures",
+                 "scenarios.embodied_homing_figures", "scenarios.locomotion_figures"]
+
+
+def loaded_top_level_modules(modules: list[str]) -> set[str]:
+    """Top-level names in sys.modules after importing ``modules`` in a fresh interpreter."""
+    code = "import sys\n" + "".join(f"import {m}\n" for m in modules) + \
+        "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})))"
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    return set(done.stdout.split())
+
+
+def test_importing_the_cli_and_scenarios_loads_no_heavy_module():
+    heavy = loaded_top_level_modules(EAGER_IMPORTS) & LAZY
+    assert not heavy, f"imported at start-up (import them where they are used): {sorted(heavy)}"
+
+
+def test_the_lazy_import_check_sees_a_heavy_import():
+    assert "matplotlib" in loaded_top_level_modules(["matplotlib.figure"])
