@@ -1,6 +1,7 @@
 """How often Stone et al. 2017's Fig. 7 claim holds: many independent 1000-agent runs.
 
-Stone et al. report that every one of 1000 agents came within 20 steps of the nest. The model
+Stone et al. (2017, Curr. Biol. 27: 3069–3085, Fig. 7; docs/parameters.md §3) report that every one
+of 1000 agents came within 20 steps of the nest. The model
 misses now and then (an agent homes along the right bearing but passes the nest 20–40 steps off,
 mostly after a long outbound route), so whether a 1000-agent sample has no miss is a matter of
 chance. This script runs ``--runs`` samples of ``--trials`` agents (seeds 0, 1000, 2000, ...) and
