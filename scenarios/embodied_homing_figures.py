@@ -27,6 +27,7 @@ def trajectories_figure(result, config):
     ts = result.timeseries
     time_s = ts["time_s"]
     fig, ax = new_figure((7, 7))
+    labelled = {"outbound": False, "homing": False}  # the legend names the first line of each drawn
     for i in range(len(result.trials)):
         recorded = np.isfinite(time_s[i])
         outbound = recorded & (time_s[i] <= config.outbound_s)
@@ -35,10 +36,12 @@ def trajectories_figure(result, config):
             homing[np.flatnonzero(outbound)[-1]] = True
         path = ts["position_m"][i]
         colour = trial_colour(i)
-        ax.plot(path[outbound, 0], path[outbound, 1], color=colour, lw=0.8, ls="--", alpha=0.8,
-                label="foraging (dashed)" if i == 0 else None, gid=f"trial {i} outbound")
-        ax.plot(path[homing, 0], path[homing, 1], color=colour, lw=1.0,
-                label="homing, CX (solid)" if i == 0 else None, gid=f"trial {i} homing")
+        for part, keep, style, label in (("outbound", outbound, dict(lw=0.8, ls="--", alpha=0.8), "foraging (dashed)"),
+                                         ("homing", homing, dict(lw=1.0), "homing, CX (solid)")):
+            visible = keep.sum() >= 2  # a line needs two points
+            ax.plot(path[keep, 0], path[keep, 1], color=colour, **style, gid=f"trial {i} {part}",
+                    label=label if visible and not labelled[part] else None)
+            labelled[part] |= bool(visible)
     ax.add_patch(Circle((0, 0), config.nest_radius_m, fill=False, color="k", ls="--"))
     ax.plot(0, 0, "k*", ms=12, label="nest")
     success = np.mean([t["success"] for t in result.trials])
@@ -50,18 +53,18 @@ def trajectories_figure(result, config):
     return fig
 
 
-def cpu4_figure(result, config):
-    """Trial 0: CPU4 memory (cells x time) above the heading (degrees, broken at ±180°)."""
+def cpu4_figure(result, config, trial: int = 0):
+    """One trial (default 0): CPU4 memory (cells x time) above the heading (degrees, broken at ±180°)."""
     ts = result.timeseries
     time_s = ts["time_s"]
-    keep = np.isfinite(ts["cpu4"][0, :, 0])
+    keep = np.isfinite(ts["cpu4"][trial, :, 0])
     fig, axes = new_figure((9, 5), 2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 1]})
-    axes[0].imshow(ts["cpu4"][0, keep].T, aspect="auto", origin="lower", cmap="viridis",
-                   extent=(time_s[0, keep][0], time_s[0, keep][-1], -0.5, 15.5))
+    axes[0].imshow(ts["cpu4"][trial, keep].T, aspect="auto", origin="lower", cmap="viridis",
+                   extent=(time_s[trial, keep][0], time_s[trial, keep][-1], -0.5, 15.5))
     axes[0].axvline(config.outbound_s, color="w", ls="--")
     axes[0].set_ylabel("CPU4 cell")
-    axes[0].set_title("trial 0: CPU4 memory (dashed: start of homing)")
-    t, heading = break_at_wraps(time_s[0, keep], ts["heading_rad"][0, keep])
+    axes[0].set_title(f"trial {trial}: CPU4 memory (dashed: start of homing)")
+    t, heading = break_at_wraps(time_s[trial, keep], ts["heading_rad"][trial, keep])
     axes[1].plot(t, np.degrees(heading), lw=0.8, gid="heading")
     axes[1].axvline(config.outbound_s, color="k", ls="--")
     axes[1].set_ylim(-180, 180)
@@ -70,13 +73,13 @@ def cpu4_figure(result, config):
     return fig
 
 
-def velocity_figure(result, config):
-    """Trial 0: the velocity fed to the CX (black) and the body's instantaneous velocity (grey)."""
+def velocity_figure(result, config, trial: int = 0):
+    """One trial (default 0): the velocity fed to the CX (black) and the body's instantaneous velocity (grey)."""
     ts = result.timeseries
-    keep = np.isfinite(ts["cpu4"][0, :, 0])
-    time_s = ts["time_s"][0, keep]
+    keep = np.isfinite(ts["cpu4"][trial, :, 0])
+    time_s = ts["time_s"][trial, keep]
     fig, axes = new_figure((9, 6), 3, 1, sharex=True)
-    fed, measured = ts["fed_velocity"][0, keep], ts["measured_velocity"][0, keep]
+    fed, measured = ts["fed_velocity"][trial, keep], ts["measured_velocity"][trial, keep]
     for k, label in enumerate(("x", "y")):
         axes[k].plot(time_s, measured[:, k], color="0.7", lw=0.8, label="measured (instant)")
         axes[k].plot(time_s, fed[:, k], color="k", lw=1.2, label="fed to the CX")
@@ -86,5 +89,5 @@ def velocity_figure(result, config):
     axes[2].set_ylabel("speed (m/s)")
     axes[2].set_xlabel("time (s)")
     axes[0].legend(fontsize=7)
-    axes[0].set_title("trial 0: velocity fed to the path integrator vs the body's instantaneous velocity")
+    axes[0].set_title(f"trial {trial}: velocity fed to the path integrator vs the body's instantaneous velocity")
     return fig

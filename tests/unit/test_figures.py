@@ -50,7 +50,9 @@ def assert_legend_names_drawn_lines(ax):
         label = artist.get_label()
         if isinstance(artist, Line2D):
             data = np.column_stack([np.asarray(artist.get_xdata(), float), np.asarray(artist.get_ydata(), float)])
-            if not np.isfinite(data).all(axis=1).any():
+            finite = np.isfinite(data).all(axis=1).sum()
+            has_marker = artist.get_marker() not in (None, "None", "", " ")
+            if finite < (1 if has_marker else 2):  # a line without markers shows from two points on
                 continue
         drawn.setdefault(label, artist)
     legend = ax.get_legend()
@@ -242,8 +244,9 @@ def embodied_result(trials: int = 3, steps: int = 60):
     heading = np.cumsum(rng.normal(0.0, 0.8, (trials, steps)), axis=1) + np.linspace(0, 8 * np.pi, steps)
     position = np.cumsum(np.stack([np.sin(heading), np.cos(heading)], -1), axis=1) * 0.05
     time_s[1, -5:] = np.nan  # a trial that ended early: padded with NaN, as run_embodied does
+    time_s[0, 3:] = np.nan  # a trial home before its foraging ended: no homing line to draw
     timeseries = {"time_s": time_s, "position_m": position, "heading_rad": heading,
-                  "cpu4": rng.uniform(0, 1, (trials, steps, 16)),
+                  "cpu4": np.where(np.isfinite(time_s)[..., None], rng.uniform(0, 1, (trials, steps, 16)), np.nan),
                   "fed_velocity": rng.normal(0, 0.1, (trials, steps, 2)),
                   "measured_velocity": rng.normal(0, 0.1, (trials, steps, 2))}
     trials_rows = [{"trial": i, "seed": i, "success": True, "status": "ok"} for i in range(trials)]
@@ -255,12 +258,13 @@ def test_embodied_figures_pair_colours_break_wraps_and_name_drawn_lines():
 
     result, config = embodied_result()
     ax = trajectories_figure(result, config).axes[0]
-    assert_trials_share_colours(ax, range(3))
+    assert_trials_share_colours(ax, range(1, 3))
     assert_legend_names_drawn_lines(ax)
-    heading_ax = cpu4_figure(result, config).axes[1]
+    assert sorted(legend_labels(ax)) == ["foraging (dashed)", "homing, CX (solid)", "nest"]
+    heading_ax = cpu4_figure(result, config, trial=1).axes[1]
     assert_no_wrap_strokes(lines_by_gid(heading_ax)["heading"])
     assert np.isnan(lines_by_gid(heading_ax)["heading"].get_ydata()).any(), "the synthetic heading wraps"
-    fig = velocity_figure(result, config)
+    fig = velocity_figure(result, config, trial=1)
     assert [a.get_ylabel() for a in fig.axes] == ["vx (m/s)", "vy (m/s)", "speed (m/s)"]
     assert_legend_names_drawn_lines(fig.axes[0])
 
