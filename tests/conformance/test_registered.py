@@ -176,3 +176,19 @@ def test_scenario_runs_short_finite_and_repeats(name):
     assert_metrics_finite(scenario, first)
     for key, array in first.timeseries.items():
         np.testing.assert_array_equal(array, second.timeseries[key], err_msg=key)
+
+
+def test_the_metric_check_refuses_an_undeclared_nan_and_accepts_a_declared_one():
+    from neuronav.scenario import ScenarioResult
+
+    class Fake:
+        name = "fake"
+        optional_metrics = ()
+
+    trials = [{"trial": 0, "seed": 0, "status": "ok", "error": "", "success": True, "d": 1.0, "t": float("nan")}]
+    with pytest.raises(AssertionError, match="metric t = nan"):
+        assert_metrics_finite(Fake(), ScenarioResult(trials=trials))
+    Fake.optional_metrics = ("t",)
+    assert_metrics_finite(Fake(), ScenarioResult(trials=trials))
+    with pytest.raises(AssertionError, match="aggregate"):
+        assert_metrics_finite(Fake(), ScenarioResult(trials=trials, aggregates={"tau": float("inf")}))
