@@ -207,7 +207,8 @@ def plot_circuit(circuit, ax=None):
         kind = graph.nodes[node]["population"].kind
         ax.add_patch(Circle(position[node], radius[node], facecolor=KIND_COLOURS[kind], edgecolor="0.3",
                             lw=0.8, zorder=2, gid=f"node:{node}"))
-        ax.text(*position[node], node, ha="center", va="center", fontsize=7, zorder=3)
+        ax.text(*position[node], node, ha="center", va="center", fontsize=7, zorder=3, gid=f"label:{node}",
+                bbox=dict(boxstyle="round,pad=0.15", facecolor="white", edgecolor="none", alpha=0.6))
     classes = []
     for source, target, data in sorted(graph.edges(data=True), key=lambda e: (e[0], e[1])):
         if source == target:

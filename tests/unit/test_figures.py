@@ -147,6 +147,10 @@ def test_circuit_diagram_draws_every_connection_clear_of_other_populations(name)
     nodes = {p.get_gid()[5:]: p for p in ax.patches if isinstance(p, Circle) and p.get_gid()}
     edges = {p.get_gid()[5:]: p for p in ax.patches if isinstance(p, FancyArrowPatch)}
     assert set(nodes) == set(circuit.graph)
+    labels = {t.get_gid()[6:]: t for t in ax.texts if t.get_gid()}
+    for node, disc in nodes.items():
+        assert labels[node].get_text() == node
+        np.testing.assert_allclose(labels[node].get_position(), disc.center, err_msg=node)
     expected = {f"{s}->{t}": d for s, t, d in circuit.graph.edges(data=True) if s != t}
     assert set(edges) == set(expected)
     for node, disc in nodes.items():
