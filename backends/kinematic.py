@@ -103,7 +103,7 @@ def default_calibration() -> UnicycleCalibration:
 
 
 class KinematicBackend(BackendBase):
-    """Batched point agents; implements the backend protocol (see DESIGN.md)."""
+    """Batched point agents; implements the backend protocol (see docs/architecture.md)."""
 
     capabilities = Capabilities(
         name="kinematic",

@@ -1,6 +1,6 @@
 """Central-complex path integration: Stone et al. 2017's model with Pontine cells, as a graph.
 
-Every number comes from ``reference/parameters.md`` §4 (Stone et al. 2017, Curr. Biol. 27:3069).
+Every number comes from ``docs/parameters.md``§3 (Stone et al. 2017, Curr. Biol. 27:3069).
 Conventions: heading is in radians, clockwise from +y (so moving at heading θ means velocity
 along (sin θ, cos θ)); velocity is world-frame (vx, vy) in distance units per step.
 

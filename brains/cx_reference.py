@@ -9,7 +9,7 @@ small weight matrices built once and applied with ``@``. It has two jobs:
 - the baseline of ``benchmarks/circuit_step.py``, which the compiled circuit must match or beat.
 
 It deliberately shares no code or constants with ``brains/cx.py``: every number is copied here from
-``reference/parameters.md`` §4, so a change to either implementation's equations shows up as a
+``docs/parameters.md``§3, so a change to either implementation's equations shows up as a
 mismatch in the test.
 
 Conventions: heading in radians, clockwise from +y (moving at heading θ means velocity along
@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 N_COLUMNS = 8
-# Sigmoid slope a and bias b of r = clip(σ(a·I − b) + noise, 0, 1), parameters.md §4.
+# Sigmoid slope a and bias b of r = clip(σ(a·I − b) + noise, 0, 1), docs/parameters.mdNone§3.
 TL2_SLOPE, TL2_BIAS = 6.8, 3.0
 CL1_SLOPE, CL1_BIAS = 3.0, -0.5
 TB1_SLOPE, TB1_BIAS = 5.0, 0.0

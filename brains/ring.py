@@ -1,6 +1,6 @@
 """Ring attractor for optimal cue integration: Sun et al. 2018/2020, as a graph.
 
-Every fixed number comes from ``reference/parameters.md`` §5 (Sun et al. 2018, "An analysis of a
+Every fixed number comes from ``docs/parameters.md``§4 (Sun et al. 2018, "An analysis of a
 ring attractor model for cue integration"; Sun et al. 2020, eLife 9:e54026): N excitatory cells
 ``E`` on a ring and one inhibitory cell ``I``,
 

@@ -159,7 +159,7 @@ class Capabilities:
 
 @runtime_checkable
 class Backend(Protocol):
-    """The interface the agent loop uses; see DESIGN.md."""
+    """The interface the agent loop uses; see docs/architecture.md."""
 
     capabilities: Capabilities
 

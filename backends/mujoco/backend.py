@@ -57,7 +57,7 @@ _FATAL_INDEX = np.array([int(w) for w in _FATAL_WARNINGS])
 
 
 class MujocoBackend(ArticulatedBackend):
-    """One articulated body simulated by MuJoCo; implements the backend protocol (see DESIGN.md).
+    """One articulated body simulated by MuJoCo; implements the backend protocol (see docs/architecture.md).
 
     Parameters
     ----------

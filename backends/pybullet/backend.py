@@ -117,7 +117,7 @@ def _matrix_to_xyzw(r: np.ndarray) -> list[float]:
 
 
 class PybulletBackend(ArticulatedBackend):
-    """One articulated body in PyBullet; implements the backend protocol (see DESIGN.md).
+    """One articulated body in PyBullet; implements the backend protocol (see docs/architecture.md).
 
     Parameters
     ----------

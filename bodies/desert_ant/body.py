@@ -1,6 +1,6 @@
 """The desert ant *Cataglyphis fortis* at ×100 scale, as a :class:`neuronav.body.BodySpec`.
 
-Numbers come from ``reference/parameters.md`` §1 (itself from the I2Bot paper and its Webots model);
+Numbers come from ``docs/parameters.md``§1 (itself from the I2Bot paper and its Webots model);
 ``bodies/desert_ant/README.md`` gives the provenance of each and says what was chosen where the
 sources are silent.
 
@@ -46,7 +46,7 @@ LEGS = ("FL", "ML", "HL", "FR", "MR", "HR")
 LEG_JOINTS = ("ThCz", "ThCx", "CTr", "FTi", "TiTa")
 MASS_KEYS = ("thorax", "head", "gaster", "antenna", "front_leg", "middle_leg", "hind_leg")
 
-# -- parameters.md §1 (I2Bot coordinates: head toward -x, |y|; lengths joint to joint) -----------------
+# -- docs/parameters.mdNone§1 (I2Bot coordinates: head toward -x, |y|; lengths joint to joint) -----------------
 _PAIRS = {
     "F": dict(kind="front", anchor=(0.239, 0.07, -0.02), lengths=(0.020, 0.250, 0.208, 0.216),
               radii=(0.011, 0.0146, 0.011, 0.006), mass=0.27, rest=(0.0, 0.0, -0.32, 1.56, -0.2), azimuth_deg=45.0),
@@ -71,7 +71,7 @@ ODOUR_FRACTION = (0.1637 + 0.16) / 0.327
 WIND_FRACTION = (0.1637 + 0.15) / 0.327
 ANTENNA_DENSITY_KG_M3 = 600.0  # the Webots model's density for head and gaster
 MASSES_KG = dict(thorax=2.9, head=2.7, gaster=4.2, front_leg=0.27, middle_leg=0.37, hind_leg=0.52)
-# Rest angles of the joints parameters.md leaves free (antennae) and ranges it does not give.
+# Rest angles of the joints docs/parameters.md leaves free (antennae) and ranges it does not give.
 ANTENNA_REST = dict(pitch=0.35, yaw=0.6, elbow=1.3)
 LEG_RANGE_RAD = (-1.9, 1.9)
 # The published hind rest FTi (1.807) plus the 20° FK lift is 2.156: beyond 1.9. I2Bot's Webots leg
