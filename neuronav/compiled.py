@@ -314,7 +314,15 @@ def leaky_euler_update(previous: np.ndarray, target: np.ndarray, leak_fraction: 
     return previous + leak_fraction * (target - previous)
 
 
-class _LeakyStep(_PopulationStep):
+class _SeparateNetStep(_PopulationStep):
+    """A population whose net input goes into a buffer of its own (its state is updated from it)."""
+
+    def _net_target(self, compiled: CompiledCircuit) -> np.ndarray:
+        self.net = np.zeros((self.cells.stop - self.cells.start, compiled.batch), compiled.dtype)
+        return self.net
+
+
+class _LeakyStep(_SeparateNetStep):
     """``leaky``: tau dr/dt = -r + f(W x + b), one Euler step (:func:`leaky_euler_update`)."""
 
     kind = "leaky"
@@ -322,10 +330,6 @@ class _LeakyStep(_PopulationStep):
     def __init__(self, *args: Any, leak_fraction: float) -> None:
         super().__init__(*args)
         self.leak_fraction = leak_fraction
-
-    def _net_target(self, compiled: CompiledCircuit) -> np.ndarray:
-        self.net = np.zeros((self.cells.stop - self.cells.start, compiled.batch), compiled.dtype)
-        return self.net
 
     def __call__(self, noise: np.ndarray | None) -> None:
         for call in self.calls:
@@ -336,7 +340,7 @@ class _LeakyStep(_PopulationStep):
         self.rates_view[...] = rates
 
 
-class _IntegratorStep(_PopulationStep):
+class _IntegratorStep(_SeparateNetStep):
     """``integrator``: m += gain * clip(W x + b) - leak, m clipped; rates f(m)."""
 
     kind = "integrator"
@@ -348,10 +352,6 @@ class _IntegratorStep(_PopulationStep):
     def bind(self, compiled: CompiledCircuit) -> None:
         self.memory = compiled._memory[self.name]
         super().bind(compiled)
-
-    def _net_target(self, compiled: CompiledCircuit) -> np.ndarray:
-        self.net = np.zeros((self.cells.stop - self.cells.start, compiled.batch), compiled.dtype)
-        return self.net
 
     def __call__(self, noise: np.ndarray | None) -> None:
         for call in self.calls:
