@@ -5,7 +5,6 @@ must match to 1e-9 (it regenerated bit for bit when this test was written)."""
 import json
 
 import numpy as np
-import pytest
 
 import scenarios.calibrate_unicycle as calibrate
 
