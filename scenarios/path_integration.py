@@ -111,6 +111,24 @@ class PathIntegration(Scenario):
             return config.protocol
         return "stone2017" if backend == "kinematic" else "i2bot"
 
+    def estimate_bytes(self, config: PathIntegrationConfig, trials: int) -> int | None:
+        """Memory one batch of ``trials`` point-agent trials needs (stone2017); None for i2bot.
+
+        Per trial, in float64: the positions of every step (2 per step), the outbound route's turns,
+        accelerations and their step-major copies (5 per outbound step), the distance arrays of the
+        metrics (3 per step), the recorded positions, and the compiled circuit's state. Measured at
+        the defaults (peak RSS of ``neuronav run path-integration --trials N`` for N = 2000 and
+        20000): about 155 KB per trial; this estimate gives 198 KB. The embodied protocol runs its
+        trials one after another, each in its own small batch: no estimate.
+        """
+        if config.protocol == "i2bot":
+            return None
+        steps = config.outbound_steps + config.inbound_steps
+        samples = steps // config.record_every
+        per_trial = 8 * (2 * (steps + 1) + 5 * config.outbound_steps + 3 * steps) + 12 * 2 * (samples + 1)
+        circuit = stone2017(noise=config.noise).compile(batch=1, dtype=np.dtype(config.dtype))
+        return int(trials * (per_trial + circuit.bytes_per_agent()))
+
     def check(self, config: PathIntegrationConfig, backend: str) -> None:
         """Refuse, before any trial, settings that cannot run on ``backend``.
 

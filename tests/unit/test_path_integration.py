@@ -166,3 +166,25 @@ def test_velocity_input_chooses_what_the_embodied_cx_is_fed(velocity_input):
         assert matches.all()
     else:
         assert not matches[1:].all()
+
+
+def test_memory_estimate_refuses_a_batch_that_cannot_fit_and_admits_chunks_that_can(tmp_path):
+    """1,000,000 default trials in one batch need ~190 GiB: refused before anything is written
+    (exit 2, naming --chunk-size); the estimate per trial stays near the measured ~155 KB."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from scenarios.path_integration import PathIntegration, PathIntegrationConfig
+
+    per_trial = PathIntegration().estimate_bytes(PathIntegrationConfig(), 1000) / 1000
+    assert 120e3 < per_trial < 320e3
+    assert PathIntegration().estimate_bytes(PathIntegrationConfig(protocol="i2bot"), 10) is None
+    neuronav = Path(sys.executable).with_name("neuronav")
+    out = tmp_path / "big"
+    done = subprocess.run([str(neuronav), "run", "path-integration", "--trials", "1000000", "--out", str(out)],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2, done.stderr
+    assert "--chunk-size" in done.stderr and "GiB" in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+    assert not out.exists()
