@@ -309,3 +309,28 @@ def test_large_batches_lay_noise_out_differently_but_draw_the_same(noise_method)
         small = stone2017(noise=0.1).compile(batch=1, seed=seed + agent, noise_method=noise_method)
         assert small._noise_by_cell
         np.testing.assert_allclose(batched[:, agent], run(small, single_inputs)[:, 0], rtol=0, atol=1e-12)
+
+
+def test_plots_show_every_population_and_connection_of_a_merged_circuit():
+    """What the two plots draw, read from the figure: every (prefixed) population, every connection, the weights."""
+    from matplotlib.patches import Circle, FancyArrowPatch
+
+    left = Circuit("left")
+    left.add_input("in", 1, ports=[X])
+    left.add_population("r", 2)
+    left.connect("in", "r", weights=[[1.0], [-2.0]])
+    right = Circuit("right")
+    right.add_input("in", 1, ports=[X])
+    right.add_population("r", 1, kind="leaky", tau_s=0.1)
+    right.connect("in", "r", weights=[[-3.0]])
+    circuit = Circuit.merge(left, right, prefixes=("left", "right"))
+    ax = plot_circuit(circuit)
+    discs = {p.get_gid()[5:] for p in ax.patches if isinstance(p, Circle)}
+    arrows = {p.get_gid()[5:] for p in ax.patches if isinstance(p, FancyArrowPatch)}
+    assert discs == set(circuit.graph)
+    assert arrows == {f"{s}->{t}" for s, t in circuit.graph.edges if s != t}
+    assert {t.get_text() for t in ax.get_legend().get_texts()} == {"input", "rate", "leaky", "mixed sign", "inhibitory"}
+    ax = plot_connectivity(circuit)
+    matrix, blocks = circuit.weight_matrix()
+    np.testing.assert_array_equal(ax.images[0].get_array(), matrix)
+    assert [t.get_text() for t in ax.get_xticklabels()] == [name for name, _, _ in blocks]
