@@ -405,6 +405,8 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
         raise ConfigError(f"{flag} {out_dir!r} is empty; give a folder for the results")
     try:
         path = Path(out_dir)
+        if "\x00" in str(path):  # pathlib's exists() says False for it, and mkdir then raises ValueError
+            raise ValueError("embedded null byte")
         exists = path.exists()
     except (TypeError, ValueError, OSError) as error:
         raise ConfigError(f"{flag} {out_dir!r} is not a usable path ({error})") from None
@@ -472,7 +474,7 @@ def claim_out_dir(out_dir: Path, kind: str = "run", flag: str = "--out") -> Path
             pass
         if (path / LEGACY_LOCK_FILE).is_file():
             (path / LEGACY_LOCK_FILE).unlink()  # the marker is the lock now
-    except OSError as error:
+    except (OSError, ValueError) as error:
         raise ConfigError(f"{flag} {_out_label(out_dir)}: cannot create the run directory "
                           f"({error.strerror or error})") from None
     return path

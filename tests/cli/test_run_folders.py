@@ -151,3 +151,12 @@ def test_a_run_folder_made_before_the_marker_existed_is_resumed_and_adopted(tmp_
     (out / ".neuronav.lock").write_text("")
     (out / "settings.json").unlink()
     assert_refused(neuronav(*args), "no neuronav run wrote")
+
+
+def test_a_path_with_a_null_byte_is_one_error_not_a_traceback(tmp_path):
+    """pathlib says such a path does not exist, then mkdir raises ValueError: both must be refused."""
+    with pytest.raises(ConfigError, match="not a usable path"):
+        claim_out_dir(tmp_path / "a\x00b")
+    from neuronav.cli import main
+
+    assert main(["run", "path-integration", "--out", str(tmp_path / "a\x00b"), "--no-figures"]) == 2
