@@ -22,7 +22,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from scipy.interpolate import RegularGridInterpolator
 
 from neuronav.backend import BackendBase, Capabilities, check_seed
 from neuronav.errors import ConfigError, SimulationError
@@ -139,6 +138,8 @@ class KinematicBackend(BackendBase):
         self._agents = bodies[0]
         self.world = world
         grid = (self.calibration.turn, self.calibration.stride_rad)
+        from scipy.interpolate import RegularGridInterpolator  # lazily: start-up cost
+
         self._speed = RegularGridInterpolator(grid, self.calibration.speed_m_s, bounds_error=False, fill_value=None)
         self._turn_rate = RegularGridInterpolator(grid, self.calibration.turn_rate_rad_s, bounds_error=False,
                                                   fill_value=None)

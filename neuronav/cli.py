@@ -274,5 +274,20 @@ def _sweep(args: argparse.Namespace, argv: list[str]) -> int:
     return _failures(summary["failed_trials"], summary["total_trials"], summary.get("first_error", ""))
 
 
+def console_main() -> int:
+    """The ``neuronav`` command: :func:`main`, then a quick exit.
+
+    ``gc.freeze()`` moves every live object out of the collector's reach, so the interpreter's last
+    collections at exit do not walk the ~1300 modules' objects (0.2 s of a 1 s run). Only for the
+    command: a process that goes on after :func:`main` should still collect its garbage.
+    """
+    import gc
+
+    try:
+        return main()
+    finally:
+        gc.freeze()
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(console_main())

@@ -24,7 +24,6 @@ from typing import Any
 
 import networkx as nx
 import numpy as np
-import scipy.sparse
 
 from neuronav.activations import ACTIVATIONS, identity, logistic, logistic_of_negated
 from neuronav.encoders import get_encoder
@@ -139,6 +138,8 @@ class _Product:
             if span == size and not np.any(nonzero & ~np.eye(size, dtype=bool)):
                 term = ("diagonal", np.diag(weights).astype(dtype)[:, None], 1)
             elif sparse:
+                import scipy.sparse  # only sparse circuits pay for the import (0.1 s at start-up)
+
                 term = ("sparse", scipy.sparse.csr_matrix(weights.astype(dtype)), 1)
             elif _is_dense(weights):
                 term = ("dense", np.ascontiguousarray(weights.T.astype(dtype))[:, :, None], span)

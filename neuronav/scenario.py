@@ -56,6 +56,9 @@ class Scenario(ABC):
     # Per-trial metrics that measure the computer, not the simulation (wall times): they are the
     # only numbers allowed to differ between two runs with the same seed.
     timing_metrics: tuple[str, ...] = ()
+    # Metrics that are undefined (NaN) in some trials by definition (a time to arrive for an agent
+    # that never arrives); the conformance test requires every other metric to be finite.
+    optional_metrics: tuple[str, ...] = ()
     # The most trials one run (or one grid point of a sweep) may ask for: more is surely a typo, and
     # its bookkeeping alone would not fit in memory. A scenario may lower or raise it.
     max_trials: int = 1_000_000
