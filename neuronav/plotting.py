@@ -62,6 +62,16 @@ def break_at_wraps(time, angle_rad, period_rad: float = 2 * np.pi):
     return np.insert(time, jumps, np.nan), np.insert(wrapped, jumps, np.nan)
 
 
+def heading_panel(ax, time, heading_rad, turn_at, time_label: str) -> None:
+    """Heading (degrees, broken at ±180°) against time on ``ax``, a dashed line at ``turn_at``."""
+    t, heading = break_at_wraps(time, heading_rad)
+    ax.plot(t, np.degrees(heading), lw=0.8, gid="heading")
+    ax.axvline(turn_at, color="k", ls="--")
+    ax.set_ylim(-180, 180)
+    ax.set_ylabel("heading (deg)")
+    ax.set_xlabel(time_label)
+
+
 def trial_colour(i: int) -> str:
     """The colour of trial ``i`` (matplotlib's ten-colour cycle)."""
     return f"C{i % 10}"

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.plotting import break_at_wraps, new_figure, save, trial_colour
+from neuronav.plotting import heading_panel, new_figure, save, trial_colour
 
 
 def write_embodied_figures(result, config, out_dir: Path) -> list[Path]:
@@ -64,12 +64,7 @@ def cpu4_figure(result, config, trial: int = 0):
     axes[0].axvline(config.outbound_s, color="w", ls="--")
     axes[0].set_ylabel("CPU4 cell")
     axes[0].set_title(f"trial {trial}: CPU4 memory (dashed: start of homing)")
-    t, heading = break_at_wraps(time_s[trial, keep], ts["heading_rad"][trial, keep])
-    axes[1].plot(t, np.degrees(heading), lw=0.8, gid="heading")
-    axes[1].axvline(config.outbound_s, color="k", ls="--")
-    axes[1].set_ylim(-180, 180)
-    axes[1].set_ylabel("heading (deg)")
-    axes[1].set_xlabel("time (s)")
+    heading_panel(axes[1], time_s[trial, keep], ts["heading_rad"][trial, keep], config.outbound_s, "time (s)")
     return fig
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from brains.cx import stone2017
-from neuronav.plotting import break_at_wraps, new_figure, plot_circuit, plot_connectivity, save, trial_colour
+from neuronav.plotting import heading_panel, new_figure, plot_circuit, plot_connectivity, save, trial_colour
 
 MAX_TRAJECTORIES = 200
 
@@ -71,12 +71,7 @@ def cpu4_figure(result, config):
     axes[0].set_ylabel("CPU4 cell")
     axes[0].set_title("trial 0: CPU4 memory (dashed: turn back)")
     fig.colorbar(image, ax=axes, shrink=0.6, label="memory")
-    t, heading = break_at_wraps(time, ts["heading_rad"][0])
-    axes[1].plot(t, np.degrees(heading), lw=0.8, gid="heading")
-    axes[1].axvline(config.outbound_steps, color="k", ls="--")
-    axes[1].set_ylim(-180, 180)
-    axes[1].set_ylabel("heading (deg)")
-    axes[1].set_xlabel("step")
+    heading_panel(axes[1], time, ts["heading_rad"][0], config.outbound_steps, "step")
     return fig
 
 
