@@ -48,22 +48,17 @@ def alive(pid):
     return state not in ("Z", "X")
 
 
-def kill_once_working(args, out, parts_glob):
-    """Start ``neuronav ARGS``, SIGKILL its main process (only it) once a part is written and both
-    workers are running; return the worker process ids."""
+def sigkill_main_when(args, ready):
+    """Start ``neuronav ARGS``; SIGKILL its main process (only it: its workers are not signalled) once
+    ``ready(process)`` is true, which it must become within 120 s while the run still works."""
     process = subprocess.Popen([NEURONAV, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 120
-        workers = []
-        while process.poll() is None:
-            assert time.monotonic() < deadline, "the run wrote no parts"
-            workers = children_of(process.pid)
-            if len(workers) >= 2 and list(out.glob(parts_glob)):
-                break
+        while process.poll() is None and not ready(process):
+            assert time.monotonic() < deadline, "the run never got to the point of the kill"
             time.sleep(0.01)
         assert process.poll() is None, process.stderr.read().decode()
-        workers = children_of(process.pid)
-        os.kill(process.pid, signal.SIGKILL)  # the main process alone: its workers are not signalled
+        os.kill(process.pid, signal.SIGKILL)
         process.wait(timeout=30)
     finally:
         if process.poll() is None:
@@ -71,6 +66,17 @@ def kill_once_working(args, out, parts_glob):
             process.wait()
         process.stderr.close()
     assert process.returncode == -signal.SIGKILL
+
+
+def kill_once_working(args, out, parts_glob):
+    """Kill ``neuronav ARGS`` once a part is written and both workers run; return the worker ids."""
+    workers = []
+
+    def ready(process):
+        workers[:] = children_of(process.pid)
+        return len(workers) >= 2 and bool(list(out.glob(parts_glob)))
+
+    sigkill_main_when(args, ready)
     return workers
 
 
@@ -180,20 +186,7 @@ def test_a_killed_run_on_a_dask_cluster_leaves_the_folder_free_and_resumes(tmp_p
                                   protocol="tcp", dashboard_address=None) as cluster:
         args = ["run", "path-integration", "--trials", "6", "--chunk-size", "1", *LONG, "--no-figures",
                 "--scheduler", cluster.scheduler_address, "--out", str(out)]
-        process = subprocess.Popen([NEURONAV, *args], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        try:
-            deadline = time.monotonic() + 120
-            while not list(out.glob("parts/trials-*.npz")) and process.poll() is None:
-                assert time.monotonic() < deadline, "the run wrote no parts"
-                time.sleep(0.01)
-            assert process.poll() is None, process.stderr.read().decode()
-            os.kill(process.pid, signal.SIGKILL)
-            process.wait(timeout=30)
-        finally:
-            if process.poll() is None:
-                process.kill()
-                process.wait()
-            process.stderr.close()
+        sigkill_main_when(args, lambda process: bool(list(out.glob("parts/trials-*.npz"))))
         done = len(list(out.glob("parts/trials-*.npz")))
         assert 1 <= done < 6
         assert main(args) == 0
