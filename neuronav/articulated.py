@@ -14,12 +14,15 @@ rules and checks, so that an engine module only translates them into its engine'
   joint targets, adhesion fractions in [0, 1];
 - ``apply_force``: body 0 only, a finite world-frame force (3,) N, at a *site* (at the site) or a
   *segment* (at the segment frame's origin); anything else is a :class:`ConfigError` listing both;
-- the follow camera's framing (:func:`follow_view`): the same view on every engine.
+- the follow camera's framing (:func:`follow_view`): the same view on every engine;
+- body cameras (:mod:`neuronav.vision`): each is a sensor (its image in grey), composed here from
+  the flat-shaded planar views an engine renders (a spherical camera from cube faces), with the
+  World's sky painted where nothing was hit; ``set_scene_yaw`` turns the world's objects.
 
 Engine hooks (each backend implements them): ``_load_engine``, ``_reset_engine``, ``_raise_root``,
 ``_penetration_m``, ``_root_pose``, ``_root_velocity``, ``_joint_state``, ``_joint_torque``,
 ``_contact_forces``, ``_site_positions``, ``_set_joint_targets``, ``_queue_force``,
-``_render_follow`` and ``_require``.
+``_render_follow``, ``_camera_frame``, ``_render_views``, ``_turn_scene`` and ``_require``.
 """
 
 from __future__ import annotations
@@ -31,9 +34,10 @@ from numbers import Integral
 import numpy as np
 
 from neuronav.backend import ARTICULATED_SENSORS, BackendBase, Capabilities, adhesion_port, check_seed, start_pose
-from neuronav.body import BodySpec, Geom, quat_to_matrix
+from neuronav.body import BodySpec, Camera, Geom, quat_to_matrix
 from neuronav.errors import ConfigError, PortError
 from neuronav.ports import MotorSpec, SensorSpec
+from neuronav.vision import View, camera_views, compose_image, cube_lookup, grey
 from neuronav.world import World
 
 MIN_TIMESTEP_S = 1e-6
@@ -73,6 +77,8 @@ def articulated_capabilities(name: str, body: BodySpec | None = None) -> Capabil
         shape = tuple(sizes[n] if isinstance(n, str) else n for n in shape)
         if min(shape) > 0:
             sensors.append(SensorSpec(sensor, shape, units))
+    # Each body camera is a sensor too: its image in grey, float in [0, 1] (neuronav.vision).
+    sensors += [SensorSpec(camera.name, (camera.height_px, camera.width_px), "grey [0, 1]") for camera in body.cameras]
     motors = (MotorSpec("joint_targets", (sizes["J"],), "rad"),) if sizes["J"] else ()
     if sizes["C"]:
         motors += (adhesion_port(sizes["C"]),)
@@ -247,6 +253,9 @@ class ArticulatedBackend(BackendBase):
         self._bounds = rest_bounds(body)
         self._sites = {s.name: s for s in body.sites}
         self._segments = {s.name for s in body.segments}
+        self._cameras = {c.name: c for c in body.cameras}
+        self._cube_lookups = {c.name: cube_lookup(c) for c in body.cameras if c.projection == "spherical"}
+        self._scene_yaw_rad = 0.0
         self.reset()
 
     def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
@@ -317,6 +326,8 @@ class ArticulatedBackend(BackendBase):
             return self._contact_forces()
         if name in ("odour_sites", "wind_sites"):
             return self._site_positions(name.split("_")[0])
+        if name in self._cameras:
+            return grey(self._render_camera(name))
         raise PortError(f"{self.engine} backend: sensor {name!r} is not implemented")  # unreachable after _check_read
 
     def write(self, commands: dict[str, np.ndarray]) -> None:
@@ -368,6 +379,31 @@ class ArticulatedBackend(BackendBase):
             pos, _, rotation = self._root_pose()
             return self._render_follow(follow_view(pos, rotation, self._bounds))
         return self._render_camera(camera)
+
+    def _render_camera(self, camera: str) -> np.ndarray:
+        """A body camera's uint8 RGB image by the rules of :mod:`neuronav.vision` (engines render the views)."""
+        spec = self._cameras.get(camera)
+        if spec is None:
+            raise PortError(f"{self.engine} backend has no camera {camera!r}; available: "
+                            f"{', '.join(['follow', *self._cameras])}")
+        eye, rotation = self._camera_frame(spec)
+        lookup = self._cube_lookups.get(camera)
+        views = camera_views(spec, eye, rotation, lookup)
+        return compose_image(spec, rotation, self._render_views(views, spec.sees_body), self.world.appearance, lookup)
+
+    @property
+    def scene_yaw_rad(self) -> float:
+        """How far the world's objects are turned about the vertical axis (see :class:`World`)."""
+        return self._scene_yaw_rad
+
+    def set_scene_yaw(self, yaw_rad: float) -> None:
+        """Turn all of the world's objects to ``yaw_rad`` (counter-clockwise seen from above) about
+        the world's z axis through the origin; the ground and the body stay where they are."""
+        self._require()
+        if isinstance(yaw_rad, bool) or not np.isfinite(yaw_rad):
+            raise ConfigError(f"{self.engine} set_scene_yaw: yaw_rad must be a finite number, got {yaw_rad!r}")
+        self._scene_yaw_rad = float(yaw_rad)
+        self._turn_scene(self._scene_yaw_rad)
 
     def follow_view(self) -> FollowView:
         """Where the follow camera is now."""
@@ -425,5 +461,16 @@ class ArticulatedBackend(BackendBase):
     def _render_follow(self, view: FollowView) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
-    def _render_camera(self, camera: str) -> np.ndarray:  # pragma: no cover
+    def _camera_frame(self, camera: Camera) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
+        """Where a body camera is now: its position (3,) and frame axes as columns (3, 3), world coordinates."""
+        raise NotImplementedError
+
+    def _render_views(self, views: list[View], sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:  # pragma: no cover
+        """Each view rendered flat-shaded (every surface in its rgba, no lights): a uint8 image (h, w, 3)
+        and a bool mask (h, w) of the pixels where nothing was hit (the caller paints the sky there);
+        the body is left out unless ``sees_body``."""
+        raise NotImplementedError
+
+    def _turn_scene(self, yaw_rad: float) -> None:  # pragma: no cover
+        """Put every world object at its declared pose turned by ``yaw_rad`` about the world z axis."""
         raise NotImplementedError

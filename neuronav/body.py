@@ -155,7 +155,12 @@ class Site:
 
 @dataclass(frozen=True)
 class Camera:
-    """A camera mount: where it is, where it looks (its -z axis, MuJoCo's convention) and its image."""
+    """A camera mount: where it is, where it looks (its -z axis, MuJoCo's convention) and its image.
+
+    Pixel rays, projections and colours follow :mod:`neuronav.vision` on every backend. A body
+    camera does not see its own body unless ``sees_body`` (an ant's eye would otherwise see its
+    antenna as a dark wedge).
+    """
 
     name: str
     segment: str
@@ -165,6 +170,7 @@ class Camera:
     height_px: int = 64
     fov_rad: tuple[float, float] = (1.0, 1.0)
     projection: str = "planar"
+    sees_body: bool = False
 
 
 @dataclass(frozen=True)

@@ -122,22 +122,69 @@ class WorldObject:
             raise ConfigError(f"object shape {self.shape!r} is unknown; allowed: {', '.join(OBJECT_SHAPES)}")
 
 
+GROUND_TEXTURES = ("checker", "plain")
+
+
+def _check_rgb(label: str, rgb) -> None:
+    if rgb is None:
+        return
+    values = np.asarray(rgb, dtype=float) if np.ndim(rgb) == 1 else np.full(0, np.nan)
+    if values.shape != (3,) or not (np.isfinite(values).all() and values.min() >= 0 and values.max() <= 1):
+        raise ConfigError(f"appearance {label} must be 3 numbers in [0, 1] (red, green, blue), got {rgb!r}")
+
+
+@dataclass(frozen=True)
+class Appearance:
+    """How the sky and the ground look to the body's cameras, the same on every backend.
+
+    ``sky_rgb``: the sky's colour (at the zenith when ``horizon_rgb`` is set: then the sky runs from
+    ``horizon_rgb`` at the horizon to ``sky_rgb`` overhead, see :func:`neuronav.vision.sky_rgb`).
+    ``ground_rgb``: the ground's colour; ``ground_texture`` ``checker`` alternates it with
+    ``checker_rgb`` in squares of ``checker_m`` (the videos' default: the motion shows against it),
+    ``plain`` draws it in one colour (what visual experiments use: a uniform ground shows no
+    structure a compass could lock onto).
+    """
+
+    sky_rgb: tuple[float, float, float] = (0.62, 0.78, 0.95)
+    horizon_rgb: tuple[float, float, float] | None = None
+    ground_rgb: tuple[float, float, float] = (0.76, 0.68, 0.52)
+    ground_texture: str = "checker"
+    checker_rgb: tuple[float, float, float] = (0.66, 0.58, 0.44)
+    checker_m: float = 0.5
+
+    def __post_init__(self) -> None:
+        for label in ("sky_rgb", "horizon_rgb", "ground_rgb", "checker_rgb"):
+            _check_rgb(label, getattr(self, label))
+        if self.ground_texture not in GROUND_TEXTURES:
+            raise ConfigError(f"appearance ground_texture {self.ground_texture!r} is unknown; allowed: "
+                              f"{', '.join(GROUND_TEXTURES)}")
+        if not (np.isfinite(self.checker_m) and self.checker_m > 0):
+            raise ConfigError(f"appearance checker_m must be > 0, got {self.checker_m}")
+
+
 @dataclass(frozen=True)
 class World:
-    """What every backend builds: a ground, static objects, and adhesion for climbing.
+    """What every backend builds: a ground, static objects, their look, and adhesion for climbing.
 
     ``adhesion_n``: while an adhesive contact site's geom (a claw: ``Site.adhesive``) touches a
     surface, a force of this size presses it into that surface (0: off). Backends apply it every
     physics step.
+
+    The objects can be turned together about the world's vertical axis through the origin while a
+    simulation runs (``backend.set_scene_yaw(yaw_rad)``, counter-clockwise seen from above; the
+    ground stays): the visual compass's rotating world.
     """
 
     ground: Ground = field(default_factory=Ground)
     objects: tuple[WorldObject, ...] = ()
     adhesion_n: float = 0.0
+    appearance: Appearance = field(default_factory=Appearance)
 
     def __post_init__(self) -> None:
         if not self.adhesion_n >= 0:
             raise ConfigError(f"world adhesion_n must be >= 0, got {self.adhesion_n}")
+        if not isinstance(self.appearance, Appearance):
+            raise ConfigError(f"world appearance must be an Appearance, got {type(self.appearance).__name__}")
 
 
 @dataclass(frozen=True)
@@ -157,12 +204,17 @@ class PointAgents:
         Fraction of the velocity lost each step (``stone`` mode).
     mass_kg : float
         Mass used by ``apply_force``.
+    cameras : tuple of Camera
+        Cameras carried by every agent, placed in the agent's frame (x forward, y left, z up,
+        origin on the ground under the agent; ``Camera.segment`` is ignored). The kinematic backend
+        renders them by ray casting (:mod:`neuronav.raycast`).
     """
 
     count: int = 1
     mode: str = "stone"
     drag: float = 0.15
     mass_kg: float = 1.0
+    cameras: tuple = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.count, int) or self.count < 1:

@@ -243,7 +243,7 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
         40 hinge joints: 6 legs × (ThCz, ThCx, CTr, FTi, TiTa) in ``LEGS`` order, then head
         (pitch, yaw), abdomen (pitch, yaw), antenna L and R (pitch, yaw, elbow). Contact sites: the
         six claws (``FL_claw`` …) then ``antenna_L_tip``, ``antenna_R_tip``. Cameras ``eye_L``,
-        ``eye_R`` (74×19, planar) and ``panorama`` (72×72, spherical, looking up).
+        ``eye_R`` (74×19, planar) and ``panorama`` (72×72, spherical: the whole sphere, level, forward in the middle).
     """
     scale = _check_positive("scale", scale)
     factors = _leg_factors(leg_length_factors)
@@ -458,12 +458,13 @@ def _cameras(scale: float) -> tuple[Camera, ...]:
         position = centre + np.array([0.0587, sign * 0.077, 0.0625]) * scale
         cameras.append(Camera(f"eye_{side}", "head", tuple(float(v) for v in position), _camera_quat(look, (0, 0, 1)),
                               width_px=74, height_px=19, fov_rad=(2.0, 0.5), projection="planar"))
-    # At the rest head pitch (-0.2, nose down) the panorama looks straight up, image top = forward.
+    # The whole sphere, level at the rest head pitch (-0.2, nose down): the middle of the image looks
+    # forward along the horizon, column 0 straight back, 5° per column and 2.5° per row.
     level = quat_to_matrix(axis_angle_quat((0, 1, 0), -0.2))  # undoes the head's rest pitch
     position = centre + level @ np.array([0.0, 0.0, 0.12 * scale])
-    quat = _quat_from_matrix(level @ quat_to_matrix(_camera_quat((0, 0, 1), (1, 0, 0))))
+    quat = _quat_from_matrix(level @ quat_to_matrix(_camera_quat((1, 0, 0), (0, 0, 1))))
     cameras.append(Camera("panorama", "head", tuple(float(v) for v in position), quat, width_px=72, height_px=72,
-                          fov_rad=(math.pi, math.pi), projection="spherical"))
+                          fov_rad=(2.0 * math.pi, math.pi), projection="spherical"))
     return tuple(cameras)
 
 

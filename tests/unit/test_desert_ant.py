@@ -212,7 +212,10 @@ def test_cameras(ant):
     pano = cameras["panorama"]
     assert (pano.width_px, pano.height_px, pano.projection) == (72, 72, "spherical")
     rotation, _ = segment_pose(ant, "head", dict(zip(ant.joint_names, ant.rest_pose_rad())))
-    assert np.allclose(-(rotation @ quat_to_matrix(pano.quat))[:, 2], (0, 0, 1), atol=1e-9)  # looks up at rest
+    frame = rotation @ quat_to_matrix(pano.quat)
+    # At rest the panorama is level: its middle column looks forward (+x), its top is up (+z).
+    assert np.allclose(-frame[:, 2], (1, 0, 0), atol=1e-9) and np.allclose(frame[:, 1], (0, 0, 1), atol=1e-9)
+    assert pano.fov_rad == pytest.approx((2 * math.pi, math.pi))
 
 
 def test_leg_geometry_needs_a_complete_leg(ant):
