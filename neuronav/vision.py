@@ -31,6 +31,11 @@ import numpy as np
 from neuronav.body import Camera
 from neuronav.errors import ConfigError
 
+# Body cameras see surfaces from NEAR_M to FAR_M; the ground reaches at least GROUND_REACH_M from
+# the origin in their renders on every engine (a ray a little below the horizon hits it far away).
+NEAR_M, FAR_M = 0.005, 1000.0
+GROUND_REACH_M = 500.0
+
 # ITU-R BT.601 luma weights: the grey a camera sensor reports.
 LUMA_WEIGHTS = np.array([0.299, 0.587, 0.114])
 
