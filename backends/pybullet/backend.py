@@ -51,16 +51,23 @@ Design
   read (``getJointStates``), one batched torque command (``setJointMotorControlArray``) and a few
   numpy operations on (J,) arrays; the root's pose is read without scipy; contact points are only
   queried when ``contact_force`` is read or adhesion is on.
-- The floor is a checker (one texture stretched over the whole ground) so that motion shows in
-  videos, as on MuJoCo.
+- The floor in the physics client looks as ``World.appearance`` says (plain ``ground_rgb``, or its
+  checker as one texture over ``Ground.size_m``, squares aligned with the world axes) so that motion
+  shows in videos, as on MuJoCo.
 - What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in
   :attr:`warnings`, as are the notes above and the reason of a divergence.
-- Cameras: TinyRenderer (software) in DIRECT mode. A planar camera uses the spec's vertical field
-  of view and square pixels (the horizontal field follows from the image's aspect ratio). A
-  spherical camera is an equirectangular image (columns: azimuth from -fov_h/2 on the left to
-  +fov_h/2 on the right, rows: elevation from +fov_v/2 at the top to -fov_v/2 at the bottom, the
-  centre looking along the camera's -z) stitched from the faces of a cube map rendered at the
-  camera (nearest-neighbour lookup). ``"follow"`` renders :func:`neuronav.articulated.follow_view`.
+- Body cameras follow :mod:`neuronav.vision` (planar views, spherical ones from cube faces, the sky,
+  the grey sensor: :class:`~neuronav.articulated.ArticulatedBackend`); this backend renders each
+  view flat-shaded with TinyRenderer (:mod:`backends.pybullet.camera`) in a second DIRECT client
+  that holds only the world's looks (:func:`backends.pybullet.scene.build_vision_world`: the ground
+  reaching ``vision.GROUND_REACH_M``), built on the first body-camera render: the body is not in
+  the picture, and a render does not pay for its triangles. A camera with ``sees_body`` renders
+  there too, with a copy of the body (loaded on first use) put in the physics body's pose; it is
+  parked 10 km under the ground otherwise. ``set_scene_yaw`` moves the objects in both clients
+  (:func:`backends.pybullet.scene.place_objects`; in the physics client they keep colliding), and a
+  reset, which rebuilds the physics client, puts them back at the current scene yaw.
+- ``"follow"`` renders :func:`neuronav.articulated.follow_view` in the physics client, lit as
+  TinyRenderer lights it, with the World's sky where nothing was drawn.
 
 Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
 framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to PyBullet,
@@ -77,14 +84,15 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from backends.pybullet.camera import SphericalLookup, render_camera, render_view
+from backends.pybullet.camera import render_flat, render_follow
 from backends.pybullet.engine import EngineOutput, pb
-from backends.pybullet.scene import build_ground, build_object, check_object
+from backends.pybullet.scene import build_ground, build_object, build_vision_world, check_object, place_objects
 from backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.articulated import ArticulatedBackend, FollowView
 from neuronav.backend import quat_product
-from neuronav.body import BodySpec, quat_to_matrix
-from neuronav.errors import ConfigError, PortError, SimulationError
+from neuronav.body import BodySpec, Camera, quat_to_matrix
+from neuronav.errors import ConfigError, SimulationError
+from neuronav.vision import View, check_camera
 from neuronav.world import World
 
 GRAVITY_M_S2 = -9.81
@@ -99,6 +107,9 @@ TOUCH_DISTANCE_M = 1e-3  # a contact point this close (or penetrating) counts as
 # millimetres, as on MuJoCo; without it every pad lets go at once when the legs change over.
 PAD_STIFFNESS_N_M = 1.2e4
 PAD_DAMPING_N_S_M = 500.0
+# Where the vision client's copy of the body waits while cameras must not see it: under the ground
+# and past the far plane.
+PARKED_POS_M = (0.0, 0.0, -1e4)
 
 def _xyzw(quat_wxyz) -> list[float]:
     w, x, y, z = quat_wxyz
@@ -157,6 +168,8 @@ class PybulletBackend(ArticulatedBackend):
         self._tmpdir: tempfile.TemporaryDirectory | None = None
         self._inner_steps = 0
         self._pending: list[tuple[int, np.ndarray, np.ndarray]] = []
+        self._objects: list[int] = []
+        self._vision: int | None = None  # the render-only client (see the module doc)
 
     # -- protocol: set-up --------------------------------------------------------------------------
     @property
@@ -193,11 +206,9 @@ class PybulletBackend(ArticulatedBackend):
             if site.kind == "contact" and site.geom:
                 find_geom(body, site.segment, site.geom)
         for camera in body.cameras:
-            if camera.projection == "planar" and not 0 < camera.fov_rad[1] < np.pi:
-                raise ConfigError(f"camera {camera.name!r}: a planar camera needs 0 < vertical fov < π, "
-                                  f"got {camera.fov_rad[1]}")
-        spherical = {c.name: SphericalLookup(c) for c in body.cameras if c.projection == "spherical"}
-        self.body, self.world, self._urdf, self._spherical = body, world, urdf, spherical
+            check_camera(camera)
+        self._close_vision()  # a new world: the render-only client is rebuilt on the next render
+        self.body, self.world, self._urdf = body, world, urdf
         if self._tmpdir is None:
             self._tmpdir = tempfile.TemporaryDirectory(prefix="neuronav_pybullet_")
         self._urdf_path = os.path.join(self._tmpdir.name, "body.urdf")
@@ -295,18 +306,63 @@ class PybulletBackend(ArticulatedBackend):
     def _queue_force(self, segment: str, point_m: np.ndarray, force_n: np.ndarray) -> None:
         self._pending.append((self._link_index[self._urdf.segment_link[segment]], point_m, force_n))
 
-    def _render_camera(self, camera: str) -> np.ndarray:
-        body = self.body
-        cameras = {c.name: c for c in body.cameras}
-        if camera not in cameras:
-            raise PortError(f"pybullet render: no camera {camera!r}; cameras: "
-                            f"{', '.join(['follow', *sorted(cameras)])}")
-        spec = cameras[camera]
-        link = self._link_index[self._urdf.segment_link[spec.segment]]
+    # -- cameras ------------------------------------------------------------------------------------
+    def _camera_frame(self, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+        link = self._link_index[self._urdf.segment_link[camera.segment]]
         pos, rot = self._frames([link])[link]
-        eye = pos + rot @ np.asarray(spec.pos_m, float)
-        cam_rot = rot @ quat_to_matrix(spec.quat)
-        return render_camera(self._client, spec, eye, cam_rot, self._spherical.get(camera))
+        return pos + rot @ np.asarray(camera.pos_m, float), rot @ quat_to_matrix(camera.quat)
+
+    def _render_views(self, views: list[View], sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+        cid = self._vision_client()
+        self._show_body(sees_body)
+        return [render_flat(cid, view, self.world, self._vision_ground, self._vision_floor_z_m) for view in views]
+
+    def _turn_scene(self, yaw_rad: float) -> None:
+        place_objects(self._client, self._objects, self.world.objects, yaw_rad)
+        if self._vision is not None:
+            place_objects(self._vision, self._vision_objects, self.world.objects, yaw_rad)
+
+    def _vision_client(self) -> int:
+        """The render-only client with the world's looks (built on first use, at the current scene yaw)."""
+        if self._vision is None:
+            cid = pb.connect(pb.DIRECT)
+            if cid < 0:
+                raise SimulationError("pybullet backend: could not start a DIRECT client for the cameras")
+            self._vision, self._vision_body = cid, None
+            self._vision_ground, self._vision_floor_z_m, self._vision_objects = build_vision_world(cid, self.world)
+            place_objects(cid, self._vision_objects, self.world.objects, self._scene_yaw_rad)
+        return self._vision
+
+    def _show_body(self, shown: bool) -> None:
+        """Put the vision client's copy of the body where the body is (loading it once), or park it."""
+        cid = self._vision
+        if not shown:
+            if self._vision_body is not None and self._vision_body_shown:
+                pb.resetBasePositionAndOrientation(self._vision_body, PARKED_POS_M, [0.0, 0.0, 0.0, 1.0],
+                                                   physicsClientId=cid)
+                self._vision_body_shown = False
+            return
+        if self._vision_body is None:
+            flags = pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER
+            with EngineOutput([]):
+                self._vision_body = pb.loadURDF(self._urdf_path, useFixedBase=self._urdf.fixed_base, flags=flags,
+                                                physicsClientId=cid)
+        copy, robot = self._vision_body, self._robot
+        pos, orn = pb.getBasePositionAndOrientation(robot, physicsClientId=self._client)
+        pb.resetBasePositionAndOrientation(copy, pos, orn, physicsClientId=cid)
+        if self._joint_index:
+            angles = [state[0] for state in pb.getJointStates(robot, self._joint_index, physicsClientId=self._client)]
+            for index, angle in zip(self._joint_index, angles):
+                pb.resetJointState(copy, index, angle, 0.0, physicsClientId=cid)
+        self._vision_body_shown = True
+
+    def _close_vision(self) -> None:
+        if self._vision is not None:
+            try:
+                pb.disconnect(physicsClientId=self._vision)
+            except pb.error:  # already gone
+                pass
+            self._vision = None
 
     def model_summary(self) -> dict:
         """What PyBullet built, read back from the engine: for comparing backends on one spec.
@@ -348,7 +404,8 @@ class PybulletBackend(ArticulatedBackend):
         self._inner_steps += int(n)
 
     def close(self) -> None:
-        """Disconnect the physics client and delete the temporary URDF."""
+        """Disconnect the physics and camera clients and delete the temporary URDF."""
+        self._close_vision()
         if self._client is not None:
             try:
                 pb.disconnect(physicsClientId=self._client)
@@ -394,8 +451,10 @@ class PybulletBackend(ArticulatedBackend):
             pb.setJointMotorControlArray(self._robot, movable, pb.VELOCITY_CONTROL, forces=[0.0] * len(movable),
                                          physicsClientId=cid)
         build_ground(cid, self.world, self._tmpdir.name)
-        for obj in self.world.objects:
-            build_object(cid, self.world, obj)
+        self._objects = [build_object(cid, self.world, obj) for obj in self.world.objects]
+        yaw_rad = getattr(self, "_scene_yaw_rad", 0.0)  # the scene's turn survives a reset
+        if yaw_rad:
+            place_objects(cid, self._objects, self.world.objects, yaw_rad)
 
     def _index_links(self) -> None:
         cid, robot = self._client, self._robot
@@ -624,9 +683,7 @@ class PybulletBackend(ArticulatedBackend):
         raise SimulationError(message)
 
     def _render_follow(self, view: FollowView) -> np.ndarray:
-        width, height = view.size_px
-        return render_view(self._client, view.eye, (view.target - view.eye) / view.distance_m, view.up, width,
-                           height, np.radians(view.fov_deg))
+        return render_follow(self._client, view, self.world)
 
     def _require(self) -> BodySpec:
         if self.body is None or self._client is None:

@@ -1,97 +1,136 @@
-"""Cameras in PyBullet: planar views through TinyRenderer and spherical ones stitched from a cube map."""
+"""Cameras in PyBullet: flat-shaded views for body cameras and the lit follow view, through TinyRenderer.
+
+What TinyRenderer does and how it is made to follow :mod:`neuronav.vision`:
+
+- **Projection.** The OpenGL matrix is written here with independent horizontal and vertical fields
+  of view (``f_x = 1 / tan(fov_h / 2)``, ``f_y = 1 / tan(fov_v / 2)``), clipping at
+  ``vision.NEAR_M`` and ``vision.FAR_M``. TinyRenderer samples each pixel at its corner, not its
+  centre; the matrix shifts the image by half a pixel in x and y so that pixel (r, c) shows what
+  lies along the ray through its centre (checked against the geometry of a box's edges).
+- **Flat shading.** ``lightAmbientCoeff`` 1, diffuse and specular 0, no shadow: a surface shows
+  ``int(255 * rgba)`` (TinyRenderer truncates; :func:`backends.pybullet.scene.exact_rgba` asks for
+  the middle of each 8-bit step, so the pixel is ``round(255 * rgba)``).
+- **Ground.** TinyRenderer's texture coordinates go wrong across the large triangles of a ground
+  that reaches hundreds of metres, so body cameras do not use a texture: the ground's pixels
+  (its bodies in the segmentation mask) are coloured here from where their ray meets the ground
+  (the plane z = 0 for a flat ground, the depth buffer's distance on a heightfield):
+  ``ground_rgb`` or the checker of ``World.appearance``.
+- **Sky.** The depth buffer is exactly 1 (the far plane) where nothing was drawn: that is the sky
+  mask, which the caller paints (:func:`neuronav.vision.compose_image`). With the near plane at
+  5 mm, ground 500 m away still has a depth below 1 (1 - 5e-6; float32 resolves 6e-8 there).
+"""
 
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
 from backends.pybullet.engine import pb
+from neuronav.articulated import FollowView
 from neuronav.body import Camera
-from neuronav.errors import ConfigError
+from neuronav.vision import FAR_M, NEAR_M, View, pixel_directions, sky_rgb, to_uint8
+from neuronav.world import World
 
-NEAR_M, FAR_M = 0.005, 200.0
+# TinyRenderer takes seconds for an eye exactly on a heightfield grid line with an axis-aligned view
+# (e.g. a forward camera after the default reset); a sub-micrometre shift avoids that.
 EYE_NUDGE_M = np.array([3.1e-7, 1.7e-7, 0.0])
-
-# Cube-map faces in the camera frame (x right, y up, looking along -z): (forward, image up).
-CUBE_FACES = (
-    ((0.0, 0.0, -1.0), (0.0, 1.0, 0.0)),
-    ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
-    ((0.0, 0.0, 1.0), (0.0, 1.0, 0.0)),
-    ((-1.0, 0.0, 0.0), (0.0, 1.0, 0.0)),
-    ((0.0, 1.0, 0.0), (0.0, 0.0, 1.0)),
-    ((0.0, -1.0, 0.0), (0.0, 0.0, -1.0)),
-)
+FLAT_LIGHT = {"lightAmbientCoeff": 1.0, "lightDiffuseCoeff": 0.0, "lightSpecularCoeff": 0.0}
 
 
-def _projection(fov_v_rad: float, aspect: float) -> list[float]:
-    """OpenGL projection matrix (column-major, as PyBullet wants it)."""
-    f = 1.0 / math.tan(fov_v_rad / 2.0)
-    a, b = -(FAR_M + NEAR_M) / (FAR_M - NEAR_M), -2.0 * FAR_M * NEAR_M / (FAR_M - NEAR_M)
-    return [f / aspect, 0.0, 0.0, 0.0, 0.0, f, 0.0, 0.0, 0.0, 0.0, a, -1.0, 0.0, 0.0, b, 0.0]
+def projection(fov_h_rad: float, fov_v_rad: float, width_px: int, height_px: int,
+               near_m: float = NEAR_M, far_m: float = FAR_M) -> list[float]:
+    """OpenGL projection matrix (column-major, as PyBullet wants it), pixel centres on their rays."""
+    fx, fy = 1.0 / math.tan(fov_h_rad / 2.0), 1.0 / math.tan(fov_v_rad / 2.0)
+    a, b = -(far_m + near_m) / (far_m - near_m), -2.0 * far_m * near_m / (far_m - near_m)
+    # Third column: the half-pixel shift (NDC spans 2 over the image: half a pixel is 1/W, 1/H).
+    return [fx, 0.0, 0.0, 0.0, 0.0, fy, 0.0, 0.0, 1.0 / width_px, 1.0 / height_px, a, -1.0, 0.0, 0.0, b, 0.0]
 
 
-class SphericalLookup:
-    """Which cube face and pixel each output pixel of an equirectangular camera samples."""
-
-    def __init__(self, camera: Camera) -> None:
-        fov_h, fov_v = camera.fov_rad
-        if not (0 < fov_h <= 2 * np.pi and 0 < fov_v <= np.pi):
-            raise ConfigError(f"camera {camera.name!r}: a spherical camera needs 0 < fov_h <= 2π and "
-                              f"0 < fov_v <= π, got {camera.fov_rad}")
-        w, h = camera.width_px, camera.height_px
-        azimuth = ((np.arange(w) + 0.5) / w - 0.5) * fov_h
-        elevation = (0.5 - (np.arange(h) + 0.5) / h) * fov_v
-        az, el = np.meshgrid(azimuth, elevation)
-        directions = np.stack([np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)], axis=-1)
-        forwards = np.array([f for f, _ in CUBE_FACES])
-        face = np.argmax(directions @ forwards.T, axis=-1)
-        # Face resolution: about the output's angular resolution, at least 8 px.
-        step_rad = min(fov_h / w, fov_v / h)
-        self.size_px = int(np.clip(math.ceil((np.pi / 2) / step_rad), 8, 512))
-        self.row = np.empty((h, w), int)
-        self.col = np.empty((h, w), int)
-        for k, (forward, up) in enumerate(CUBE_FACES):
-            mask = face == k
-            if not mask.any():
-                continue
-            forward, up = np.array(forward), np.array(up)
-            right = np.cross(forward, up)
-            d = directions[mask]
-            depth = d @ forward
-            x, y = (d @ right) / depth, (d @ up) / depth
-            n = self.size_px
-            self.col[mask] = np.clip(((x + 1.0) / 2.0 * n).astype(int), 0, n - 1)
-            self.row[mask] = np.clip(((1.0 - y) / 2.0 * n).astype(int), 0, n - 1)
-        self.face = face
-        self.faces_used = sorted(int(k) for k in np.unique(face))
+def view_matrix(eye_m: np.ndarray, rotation: np.ndarray) -> list[float]:
+    """World-to-camera matrix (column-major) of a camera at ``eye_m`` with frame axes ``rotation`` (columns)."""
+    matrix = np.eye(4)
+    matrix[:3, :3] = rotation.T
+    matrix[:3, 3] = -rotation.T @ eye_m
+    return matrix.T.ravel().tolist()
 
 
-def render_view(cid: int, eye, forward, up, width: int, height: int, fov_v_rad: float) -> np.ndarray:
-    """An RGB image (H, W, 3) uint8 from ``eye`` looking along ``forward`` (TinyRenderer)."""
-    # TinyRenderer takes seconds for an eye exactly on a heightfield grid line with an axis-aligned
-    # view (e.g. a forward camera after the default reset); a sub-micrometre shift avoids that.
-    eye = np.asarray(eye, float) + EYE_NUDGE_M
-    view = pb.computeViewMatrix(list(map(float, eye)), list(map(float, np.asarray(eye) + forward)),
-                                list(map(float, up)), physicsClientId=cid)
-    _, _, rgb, _, _ = pb.getCameraImage(int(width), int(height), view, _projection(fov_v_rad, width / height),
-                                        shadow=0, renderer=pb.ER_TINY_RENDERER,
-                                        flags=pb.ER_NO_SEGMENTATION_MASK, physicsClientId=cid)
-    return np.asarray(rgb, np.uint8).reshape(int(height), int(width), 4)[:, :, :3].copy()
+def linear_depth_m(depth: np.ndarray, near_m: float = NEAR_M, far_m: float = FAR_M) -> np.ndarray:
+    """Distance along the camera's -z axis from OpenGL window depth in [0, 1]."""
+    return far_m * near_m / (far_m - (far_m - near_m) * np.asarray(depth, float))
 
 
-def render_camera(cid: int, spec: Camera, eye: np.ndarray, rotation: np.ndarray,
-                  lookup: SphericalLookup | None = None) -> np.ndarray:
-    """A body camera's image: ``spec`` at ``eye`` (3,) with the world ``rotation`` (3, 3) of its frame.
+@lru_cache(maxsize=32)
+def _directions(width_px: int, height_px: int, fov_h_rad: float, fov_v_rad: float) -> np.ndarray:
+    """Unit pixel rays (H, W, 3) in the camera frame of a planar view (:func:`neuronav.vision.pixel_directions`)."""
+    camera = Camera("view", "view", (0.0, 0.0, 0.0), width_px=width_px, height_px=height_px,
+                    fov_rad=(fov_h_rad, fov_v_rad))
+    directions = pixel_directions(camera)
+    directions.setflags(write=False)
+    return directions
 
-    A planar camera renders directly; a spherical one (``lookup`` given) renders the cube faces it
-    needs and samples them into its equirectangular image.
+
+def _render(cid: int, eye_m, rotation, width_px: int, height_px: int, fov_rad, light: dict, segmentation: bool):
+    eye = np.asarray(eye_m, float) + EYE_NUDGE_M
+    flags = 0 if segmentation else pb.ER_NO_SEGMENTATION_MASK
+    _, _, rgb, depth, seg = pb.getCameraImage(int(width_px), int(height_px), view_matrix(eye, np.asarray(rotation)),
+                                              projection(fov_rad[0], fov_rad[1], width_px, height_px), shadow=0,
+                                              renderer=pb.ER_TINY_RENDERER, flags=flags, physicsClientId=cid, **light)
+    shape = (int(height_px), int(width_px))
+    rgb = np.asarray(rgb, np.uint8).reshape(*shape, 4)[:, :, :3].copy()
+    return rgb, np.asarray(depth, np.float32).reshape(shape), (np.asarray(seg).reshape(shape) if segmentation else None)
+
+
+def render_flat(cid: int, view: View, world: World, ground_ids: list[int],
+                floor_z_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """One body-camera view, flat-shaded: its uint8 image (h, w, 3) and sky mask (h, w) (see the module doc).
+
+    ``ground_ids``: the ground's bodies, the flat floor (top at ``floor_z_m``) last.
     """
-    if spec.projection == "planar":
-        return render_view(cid, eye, rotation @ np.array([0.0, 0.0, -1.0]), rotation @ np.array([0.0, 1.0, 0.0]),
-                           spec.width_px, spec.height_px, spec.fov_rad[1])
-    faces = np.zeros((len(CUBE_FACES), lookup.size_px, lookup.size_px, 3), np.uint8)
-    for k in lookup.faces_used:
-        forward, up = (np.array(v) for v in CUBE_FACES[k])
-        faces[k] = render_view(cid, eye, rotation @ forward, rotation @ up, lookup.size_px, lookup.size_px, np.pi / 2)
-    return faces[lookup.face, lookup.row, lookup.col]
+    checker = world.appearance.ground_texture == "checker"
+    rgb, depth, seg = _render(cid, view.eye_m, view.rotation, view.width_px, view.height_px, view.fov_rad,
+                              FLAT_LIGHT, segmentation=checker)
+    sky = depth >= 1.0
+    if checker:
+        # The last ground body is the flat floor (its top at floor_z_m), any other a heightfield.
+        floor, field = seg == ground_ids[-1], np.isin(seg, ground_ids[:-1])
+        for mask, plane_z_m in ((floor & ~sky, floor_z_m), (field & ~sky, None)):
+            if mask.any():
+                rgb[mask] = ground_colour(view, world, mask, depth, plane_z_m)
+    return rgb, sky
+
+
+def ground_colour(view: View, world: World, on_ground: np.ndarray, depth: np.ndarray,
+                  floor_z_m: float | None) -> np.ndarray:
+    """The checker's colour (uint8 (n, 3)) where the rays of the ``on_ground`` pixels meet the ground:
+    the plane z = ``floor_z_m``, or (None: a heightfield) as far as the depth buffer says."""
+    local = _directions(view.width_px, view.height_px, *view.fov_rad)[on_ground]
+    rays = local @ np.asarray(view.rotation, float).T
+    eye = np.asarray(view.eye_m, float)
+    if floor_z_m is not None:
+        down = np.minimum(rays[:, 2], -1e-12)  # a ray at or above the horizon cannot be ground: far away
+        reach = (floor_z_m - eye[2]) / down
+    else:  # the depth buffer's distance: a few mm off at 20 m (float32 depth, 5 mm near plane)
+        reach = linear_depth_m(depth[on_ground]) / np.maximum(-local[:, 2], 1e-12)
+    points = eye[:2] + reach[:, None] * rays[:, :2]
+    appearance = world.appearance
+    squares = np.floor(points / appearance.checker_m).sum(axis=1)
+    odd = (np.mod(squares, 2.0) == 1.0)[:, None]
+    return to_uint8(np.where(odd, appearance.checker_rgb, appearance.ground_rgb))
+
+
+def render_follow(cid: int, view: FollowView, world: World) -> np.ndarray:
+    """The follow camera's image (lit, for videos), the World's sky painted where nothing was drawn."""
+    width, height = view.size_px
+    forward = (view.target - view.eye) / view.distance_m
+    up = np.asarray(view.up, float)
+    rotation = np.column_stack([np.cross(forward, up), up, -forward])
+    fov_v = math.radians(view.fov_deg)
+    fov_h = 2.0 * math.atan(math.tan(fov_v / 2.0) * width / height)  # square pixels
+    rgb, depth, _ = _render(cid, view.eye, rotation, width, height, (fov_h, fov_v), {}, segmentation=False)
+    sky = depth >= 1.0
+    if sky.any():
+        rays = _directions(width, height, fov_h, fov_v)[sky] @ rotation.T
+        rgb[sky] = to_uint8(sky_rgb(world.appearance, rays))
+    return rgb
