@@ -153,6 +153,7 @@ def test_capabilities_placeholders_then_real_shapes_and_reads_match():
         shapes = {s.name: s.shape for s in caps.sensors}
         assert shapes["joint_pos"] == (4,) and shapes["contact_force"] == (3, 3)
         assert shapes["odour_sites"] == (1, 3) and shapes["wind_sites"] == (1, 3) and shapes["body_quat"] == (4,)
+        assert shapes["eye"] == (16, 32) and shapes["pano"] == (24, 48)  # body cameras are grey-image sensors
         assert [(m.name, m.shape, m.units) for m in caps.motors] == [("joint_targets", (4,), "rad"),
                                                                     ("adhesion", (3,), "fraction of adhesion_n")]
         backend.step(3)
@@ -343,17 +344,18 @@ def test_objects_are_solid_and_visible():
         # The cone narrows: halfway up it is half as wide.
         hit = pb.rayTest([0.0, 1.5 + 0.15, 3.0], [0.0, 1.5 + 0.15, -1.0], physicsClientId=cid)[0]
         assert hit[3][2] == pytest.approx(0.15, abs=0.02)
-        # The panorama sees the red box ahead (centre column) and the green cone on the left (a quarter in).
+        # The panorama sees the red box ahead (centre column) and the green cone on the left (a quarter in),
+        # each in exactly its colour (flat shading).
         image = backend.render("pano").astype(int)
-        red = (image[..., 0] > 150) & (image[..., 1] < 40) & (image[..., 2] < 40)
-        green = (image[..., 1] > 150) & (image[..., 0] < 40) & (image[..., 2] < 40)
+        red = (image == (255, 0, 0)).all(-1)
+        green = (image == (0, 255, 0)).all(-1)
         width = image.shape[1]
         assert red.any() and green.any()
         assert np.mean(np.nonzero(red)[1]) == pytest.approx(width / 2, abs=2)
         assert np.mean(np.nonzero(green)[1]) == pytest.approx(width / 4, abs=2)
         assert np.nonzero(red)[0].max() < image.shape[0] / 2 + 2  # above the horizon (it is taller than the eye)
         eye = backend.render("eye").astype(int)
-        red = (eye[..., 0] > 150) & (eye[..., 1] < 40) & (eye[..., 2] < 40)
+        red = (eye == (255, 0, 0)).all(-1)
         assert np.mean(np.nonzero(red)[1]) == pytest.approx(eye.shape[1] / 2, abs=1.5)
 
 

@@ -171,6 +171,9 @@ def test_scene_yaw_of_five_degrees_rolls_the_panorama_by_one_column_and_keeps_co
         backend.reset()  # a reset rebuilds the physics world at the current scene yaw
         hit = pb.rayTest([x, y, 3.0], [x, y, -1.0], physicsClientId=backend.client_id)[0]
         assert hit[3][2] == pytest.approx(2.0, abs=2e-3)
+    with loaded(World(objects=objects, appearance=PLAIN), panorama()) as backend:
+        backend.set_scene_yaw(np.radians(5.0))  # before the first render: the cameras' world starts turned
+        np.testing.assert_array_equal(backend.render("pano"), after)
     # Counter-clockwise is to the left: one column (5°) toward column 0.
     rolled = np.roll(before, -1, axis=1)
     assert (rolled == after).all(-1).mean() > 0.97
