@@ -206,3 +206,16 @@ def test_the_follow_view_shows_the_appearance_sky():
         image = backend.render("follow")
     assert image.shape == (480, 640, 3)
     np.testing.assert_array_equal(image[0, 0], to_uint8(appearance.sky_rgb))
+
+
+def test_a_camera_that_sees_the_body_does_not_show_it_to_one_that_does_not():
+    ant = _ant()
+    ant = dataclasses.replace(ant, cameras=tuple(dataclasses.replace(c, sees_body=c.name == "panorama")
+                                                 for c in ant.cameras))
+    with PybulletBackend() as backend:
+        backend.load(World(appearance=PLAIN), [ant])
+        backend.step(20)
+        images = {name: backend.render(name) for name in ("eye_L", "panorama", "eye_R")}
+    for name, image in images.items():
+        scenery = (image == to_uint8(PLAIN.sky_rgb)).all(-1) | (image == to_uint8(PLAIN.ground_rgb)).all(-1)
+        assert scenery.all() == (name != "panorama"), name
