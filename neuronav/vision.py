@@ -25,6 +25,7 @@ landmark lands in the same image column on MuJoCo, PyBullet and the kinematic ra
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
@@ -64,7 +65,21 @@ def check_camera(camera: Camera) -> None:
 
 
 def pixel_directions(camera: Camera) -> np.ndarray:
-    """Unit ray direction of every pixel in the camera's frame, shape (H, W, 3) (see the module doc)."""
+    """Unit ray direction of every pixel in the camera's frame, shape (H, W, 3) (see the module doc).
+
+    Computed once per camera and kept (read-only): every frame of a camera uses the same rays.
+    """
+    return _pixel_directions(camera)
+
+
+@lru_cache(maxsize=64)
+def _pixel_directions(camera: Camera) -> np.ndarray:
+    directions = _directions(camera)
+    directions.setflags(write=False)
+    return directions
+
+
+def _directions(camera: Camera) -> np.ndarray:
     check_camera(camera)
     w, h = camera.width_px, camera.height_px
     fov_h, fov_v = camera.fov_rad
@@ -113,6 +128,8 @@ class CubeLookup:
     faces : tuple of int
         The faces the camera's field of view needs (indices into :data:`CUBE_FACE_ROTATIONS`).
     face, row, col : ndarray of int, shape (H, W)
+    slot : ndarray of int, shape (H, W)
+        Each pixel's face as its position in ``faces`` (the order the faces are rendered in).
     """
 
     face_px: int
@@ -120,6 +137,7 @@ class CubeLookup:
     face: np.ndarray
     row: np.ndarray
     col: np.ndarray
+    slot: np.ndarray
 
 
 def cube_lookup(camera: Camera) -> CubeLookup:
@@ -139,7 +157,8 @@ def cube_lookup(camera: Camera) -> CubeLookup:
     face_px = int(np.clip(np.ceil((np.pi / 2.0) / step_rad), 8, 1024))
     col = np.clip(((x + 1.0) / 2.0 * face_px).astype(int), 0, face_px - 1)
     row = np.clip(((1.0 - y) / 2.0 * face_px).astype(int), 0, face_px - 1)
-    return CubeLookup(face_px, tuple(int(k) for k in np.unique(face)), face, row, col)
+    faces = np.unique(face)
+    return CubeLookup(face_px, tuple(int(k) for k in faces), face, row, col, np.searchsorted(faces, face))
 
 
 def camera_views(camera: Camera, eye_m: np.ndarray, rotation: np.ndarray,
@@ -189,11 +208,9 @@ def compose_image(camera: Camera, rotation: np.ndarray, rendered: list[tuple[np.
         rgb, sky = rendered[0]
     else:
         lookup = lookup if lookup is not None else cube_lookup(camera)
-        slot = {face: k for k, face in enumerate(lookup.faces)}
-        index = np.vectorize(slot.__getitem__, otypes=[int])(lookup.face)
         rgbs = np.stack([r for r, _ in rendered])
         skies = np.stack([s for _, s in rendered])
-        rgb, sky = rgbs[index, lookup.row, lookup.col], skies[index, lookup.row, lookup.col]
+        rgb, sky = rgbs[lookup.slot, lookup.row, lookup.col], skies[lookup.slot, lookup.row, lookup.col]
     image = np.array(rgb, dtype=np.uint8, copy=True)
     if sky.any():
         directions = pixel_directions(camera)[sky] @ np.asarray(rotation, float).T
