@@ -17,10 +17,21 @@ or control (NaN, inf or beyond 1e10) raises :class:`~neuronav.errors.SimulationE
 
 Cameras
 -------
-Planar cameras render directly. A spherical camera renders up to six 90° cube faces and stitches
-them into an equirectangular image by nearest-neighbour lookup (see :func:`mjcf.panorama_lookup`).
+Body cameras follow :mod:`neuronav.vision` (the shared base composes their images): this module
+renders the planar views it asks for, flat-shaded, in one GL context of its own. Per camera frame
+the scene is updated once; every view (a planar eye, or a panorama's cube faces) is drawn into its
+own viewport of one offscreen buffer with its own frustum (independent horizontal and vertical
+fields of view, clipped at ``NEAR_M``..``FAR_M``), and the buffer is read once, colour and depth.
+Flat shading: the scene's only light is an ambient headlight of 1 (no diffuse, specular, shadows,
+reflections, fog, haze or skybox), so each surface shows exactly its rgba; the checker texture is
+sampled nearest (one texel per square). Pixels left at the far plane are the sky mask. The body
+(geom group ``BODY_GROUP``) is drawn only for a camera that ``sees_body``.
 ``"follow"`` is the shared follow view (:func:`neuronav.articulated.follow_view`): the free camera
-looks at its target from its distance, with the model's free-camera field of view set to it.
+looks at its target from its distance, with the model's free-camera field of view set to it; it is
+lit (headlight and sun) with the World's sky and floor.
+
+Scene yaw rewrites the world objects' model poses (turned about the world z axis), so their
+collisions follow them.
 
 Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
 framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to MuJoCo.
@@ -36,10 +47,11 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from backends.mujoco.mjcf import ModelNames, compile_model  # noqa: E402
+from backends.mujoco.mjcf import BODY_GROUP, HORIZON_GROUP, ModelNames, compile_model  # noqa: E402
 from neuronav.articulated import ArticulatedBackend, FollowView  # noqa: E402
-from neuronav.body import BodySpec  # noqa: E402
-from neuronav.errors import PortError, SimulationError  # noqa: E402
+from neuronav.body import BodySpec, Camera, quat_to_matrix  # noqa: E402
+from neuronav.errors import SimulationError  # noqa: E402
+from neuronav.vision import FAR_M, NEAR_M, View  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
 _FATAL_WARNINGS = {
@@ -82,6 +94,7 @@ class MujocoBackend(ArticulatedBackend):
         self.data: mujoco.MjData | None = None
         self.names: ModelNames | None = None
         self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
+        self._eyes: _FlatRenderer | None = None
         self._pending: list[tuple[int, np.ndarray, np.ndarray]] = []
 
     # -- engine hooks: building and resetting --------------------------------------------------------
@@ -205,29 +218,34 @@ class MujocoBackend(ArticulatedBackend):
         self._torque = data.actuator_force.copy()
         self._forces_current = False
 
-    def _render_camera(self, camera: str) -> np.ndarray:
-        model, data = self._require_model()
-        if camera in self.names.cameras:
-            spec = next(c for c in self.body.cameras if c.name == camera)
-            renderer = self._renderer(spec.width_px, spec.height_px)
-            renderer.update_scene(data, camera=self.names.cameras[camera])
-            return renderer.render().copy()
-        if camera in self.names.panoramas:
-            pano = self.names.panoramas[camera]
-            renderer = self._renderer(pano.face_px, pano.face_px)
-            faces = []
-            for face in pano.faces:
-                renderer.update_scene(data, camera=face)
-                faces.append(renderer.render().copy())
-            return np.stack(faces)[pano.face_index, pano.rows, pano.cols]
-        known = ["follow", *self.names.cameras, *self.names.panoramas]
-        raise PortError(f"mujoco backend has no camera {camera!r}; available: {', '.join(known)}")
-
     def _render_follow(self, view: FollowView) -> np.ndarray:
         self.model.vis.global_.fovy = view.fov_deg
         renderer = self._renderer(*view.size_px)
-        renderer.update_scene(self.data, camera=self._follow_camera(view))
+        renderer.update_scene(self.data, camera=self._follow_camera(view), scene_option=self._follow_option)
         return renderer.render().copy()
+
+    # -- engine hooks: body cameras --------------------------------------------------------------------
+    def _camera_frame(self, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+        segment = self._camera_segments[camera.name]
+        position, rotation = self.data.xpos[segment], self.data.xmat[segment].reshape(3, 3)
+        return position + rotation @ np.asarray(camera.pos_m, float), rotation @ quat_to_matrix(camera.quat)
+
+    def _render_views(self, views: list[View], sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+        if self._eyes is None:
+            self._eyes = _FlatRenderer(self.model)
+        return self._eyes.render(self.model, self.data, views, sees_body)
+
+    def _turn_scene(self, yaw_rad: float) -> None:
+        model = self.model
+        c, s = np.cos(yaw_rad), np.sin(yaw_rad)
+        turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        yaw_quat = np.array([np.cos(yaw_rad / 2.0), 0.0, 0.0, np.sin(yaw_rad / 2.0)])
+        for geom, pos, quat in zip(self._object_geoms, self._object_pos, self._object_quat, strict=True):
+            model.geom_pos[geom] = turn @ pos
+            mujoco.mju_mulQuat(model.geom_quat[geom], yaw_quat, quat)
+        # Poses and contacts of the turned scene; the solved forces are recomputed when read.
+        mujoco.mj_forward(model, self.data)
+        self._forces_current = False
 
     def _queue_force(self, segment: str, point_m: np.ndarray, force_n: np.ndarray) -> None:
         body_id = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, segment)
@@ -262,6 +280,12 @@ class MujocoBackend(ArticulatedBackend):
             geom_ids = ids(mujoco.mjtObj.mjOBJ_GEOM, geoms)
             self._site_of_geom[geom_ids] = index
             self._site_geoms.append(geom_ids)
+        self._camera_segments = {c.name: int(ids(mujoco.mjtObj.mjOBJ_BODY, [c.segment])[0]) for c in body.cameras}
+        self._object_geoms = ids(mujoco.mjtObj.mjOBJ_GEOM, [f"world/object{i}" for i in range(len(world.objects))])
+        self._object_pos = model.geom_pos[self._object_geoms].copy()
+        self._object_quat = model.geom_quat[self._object_geoms].copy()
+        self._follow_option = mujoco.MjvOption()
+        self._follow_option.geomgroup[HORIZON_GROUP] = 1
         self._odour = ids(mujoco.mjtObj.mjOBJ_SITE, [s.name for s in body.sites_of_kind("odour")])
         self._wind = ids(mujoco.mjtObj.mjOBJ_SITE, [s.name for s in body.sites_of_kind("wind")])
         self._adhesion_n = float(world.adhesion_n)
@@ -408,6 +432,9 @@ class MujocoBackend(ArticulatedBackend):
         for renderer in self._renderers.values():
             renderer.close()
         self._renderers.clear()
+        if self._eyes is not None:
+            self._eyes.close()
+            self._eyes = None
 
     def _require(self) -> BodySpec:
         if self.model is None:
@@ -423,3 +450,100 @@ class MujocoBackend(ArticulatedBackend):
             self._close_renderers()
         except Exception:  # noqa: BLE001 -- interpreter shutdown: GL may already be gone
             pass
+
+
+class _FlatRenderer:
+    """Body-camera views, flat-shaded, in one GL context: one scene update and one read per camera frame."""
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.width, self.height = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
+        self._gl = mujoco.GLContext(self.width, self.height)
+        self._gl.make_current()
+        # No multisampling: an edge pixel shows one surface's colour, never a blend (the follow view keeps it).
+        samples = int(model.vis.quality.offsamples)
+        model.vis.quality.offsamples = 0
+        try:
+            self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
+        finally:
+            model.vis.quality.offsamples = samples
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
+        self._nearest_textures(model)
+        self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
+        for flag in (mujoco.mjtRndFlag.mjRND_SHADOW, mujoco.mjtRndFlag.mjRND_REFLECTION, mujoco.mjtRndFlag.mjRND_SKYBOX,
+                     mujoco.mjtRndFlag.mjRND_FOG, mujoco.mjtRndFlag.mjRND_HAZE):
+            self._scene.flags[flag] = 0
+        self._option = mujoco.MjvOption()
+        self._option.geomgroup[:] = 0
+        self._option.geomgroup[0] = self._option.geomgroup[HORIZON_GROUP] = 1
+        self._perturb, self._camera = mujoco.MjvPerturb(), mujoco.MjvCamera()
+        self._buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+
+    def _nearest_textures(self, model: mujoco.MjModel) -> None:
+        """Sample 2D textures nearest, without mipmaps: a checker square is exactly its colour at any distance."""
+        from OpenGL import GL  # mujoco's EGL context comes with PyOpenGL
+
+        for texture in range(model.ntex):
+            if model.tex_type[texture] != mujoco.mjtTexture.mjTEXTURE_2D:
+                continue
+            GL.glBindTexture(GL.GL_TEXTURE_2D, int(self._context.texture[texture]))
+            GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MIN_FILTER, GL.GL_NEAREST)
+            GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_NEAREST)
+        GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
+
+    def render(self, model: mujoco.MjModel, data: mujoco.MjData, views: list[View],
+               sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+        total = sum(view.width_px for view in views)
+        tallest = max(view.height_px for view in views)
+        if total > self.width or tallest > self.height:
+            raise SimulationError(f"mujoco backend: body-camera views of {total}x{tallest} px do not fit the "
+                                  f"{self.width}x{self.height} offscreen buffer")
+        self._gl.make_current()
+        scene, context = self._scene, self._context
+        self._option.geomgroup[BODY_GROUP] = int(sees_body)
+        mujoco.mjv_updateScene(model, data, self._option, self._perturb, self._camera,
+                               int(mujoco.mjtCatBit.mjCAT_STATIC) | int(mujoco.mjtCatBit.mjCAT_DYNAMIC), scene)
+        # Flat shading: one ambient light of 1, nothing else, so colour = rgba (times the texture).
+        light = scene.lights[0]
+        light.headlight, light.castshadow = 1, 0
+        light.ambient[:], light.diffuse[:], light.specular[:] = 1.0, 0.0, 0.0
+        scene.nlight = 1
+        left = 0
+        for view in views:
+            self._frame(view)
+            mujoco.mjr_render(mujoco.MjrRect(left, 0, view.width_px, view.height_px), scene, context)
+            left += view.width_px
+        whole = mujoco.MjrRect(0, 0, total, tallest)
+        if (tallest, total) not in self._buffers:  # readPixels fills contiguous arrays of the read's size
+            self._buffers[tallest, total] = (np.zeros((tallest, total, 3), dtype=np.uint8),
+                                             np.zeros((tallest, total), dtype=np.float32))
+        rgb, depth = self._buffers[tallest, total]
+        mujoco.mjr_readPixels(rgb, depth, whole, context)
+        # GL rows run bottom-up: each view is the bottom of its column block, flipped.
+        rendered, left = [], 0
+        for view in views:
+            rows = slice(view.height_px - 1, None, -1)
+            block = slice(left, left + view.width_px)
+            rendered.append((rgb[rows, block].copy(), depth[rows, block] >= 1.0))
+            left += view.width_px
+        return rendered
+
+    def _frame(self, view: View) -> None:
+        """Both GL cameras at the view: pose, and a frustum with its own horizontal and vertical fields of view."""
+        half_w = NEAR_M * np.tan(view.fov_rad[0] / 2.0)
+        half_h = NEAR_M * np.tan(view.fov_rad[1] / 2.0)
+        for camera in self._scene.camera:
+            camera.pos[:] = view.eye_m
+            camera.forward[:] = -view.rotation[:, 2]
+            camera.up[:] = view.rotation[:, 1]
+            camera.frustum_center, camera.frustum_width = 0.0, half_w
+            camera.frustum_bottom, camera.frustum_top = -half_h, half_h
+            camera.frustum_near, camera.frustum_far = NEAR_M, FAR_M
+            camera.orthographic = 0
+
+    def close(self) -> None:
+        """Free the GL context."""
+        if self._gl is not None:
+            self._gl.make_current()
+            self._context.free()
+            self._gl.free()
+            self._gl = None

@@ -17,11 +17,13 @@ What the model contains
 - Body geoms collide with the world but not with each other (``contype`` 1, ``conaffinity`` 0): the
   legs may cross, as in PyBullet's default (no self-collision). ``body.notes["self_collision"] = True``
   turns self-collision on (MuJoCo still skips parent-child pairs).
-- A site per spec site; a camera per planar spec camera (its horizontal and vertical FOV both honoured
-  through MuJoCo's camera intrinsics); for a spherical camera, a cube of 90° cameras at the mount,
-  from which the backend stitches an equirectangular panorama (:func:`panorama_lookup`).
+- A site per spec site. Body cameras are not model cameras: the backend renders them from the mount
+  segment's pose by the rules of :mod:`neuronav.vision` (its own frustum per view).
 - The world: a plane (flat, wall), a heightfield (uneven), a wall box, objects (a cone is a convex
-  mesh), a sky box, a light, and the physics options (timestep, integrator, solver).
+  mesh), a sky box and a floor coloured from :class:`~neuronav.world.Appearance`, a light, and the
+  physics options (timestep, integrator, solver). The ground plane is drawn out to
+  :data:`neuronav.vision.GROUND_REACH_M` (a plane collides everywhere; its size only bounds the
+  drawing); around a heightfield a visual-only plane (group ``HORIZON_GROUP``) carries the ground on.
 """
 
 from __future__ import annotations
@@ -36,8 +38,9 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
 from neuronav.articulated import FOLLOW_SIZE_PX  # noqa: E402
-from neuronav.body import BodySpec, Camera, Segment, quat_to_matrix  # noqa: E402
+from neuronav.body import BodySpec, Segment  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
+from neuronav.vision import GROUND_REACH_M, check_camera, cube_lookup  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
@@ -51,39 +54,12 @@ BODY_CONTYPE, BODY_CONAFFINITY = 1, 0
 WORLD_CONTYPE, WORLD_CONAFFINITY = 1, 1
 BODY_GROUP = 1  # world geoms stay in group 0, so rays and renders can tell them apart
 SITE_GROUP = 4  # hidden in renders (MuJoCo shows groups 0-2 by default)
-
-# Cube-map faces of a spherical camera: the rotation of each face camera in the mount camera's frame.
-# Cameras look along their -z, so e.g. "left" turns -z onto -x (a +90° turn about +y).
-_FACES = {
-    "front": np.eye(3),
-    "left": np.array([[0.0, 0.0, 1.0], [0.0, 1.0, 0.0], [-1.0, 0.0, 0.0]]),
-    "back": np.array([[-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]]),
-    "right": np.array([[0.0, 0.0, -1.0], [0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
-    "up": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]),
-    "down": np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -1.0, 0.0]]),
-}
-
-
-@dataclass(frozen=True)
-class Panorama:
-    """How to stitch an equirectangular image from cube faces.
-
-    Attributes
-    ----------
-    faces : tuple of str
-        MuJoCo camera names of the faces actually seen, in the order of ``face_index``.
-    face_px : int
-        Side of each (square) face image.
-    face_index, rows, cols : ndarray of int, shape (H, W)
-        For each panorama pixel, which face and which face pixel it shows (nearest neighbour).
-    """
-
-    faces: tuple[str, ...]
-    face_px: int
-    face_index: np.ndarray
-    rows: np.ndarray
-    cols: np.ndarray
-
+HORIZON_GROUP = 3  # the visual-only ground around a heightfield: drawn, never hit by rays
+HORIZON_DROP_M = 1e-3  # that plane sits just under z = 0, so the heightfield draws over it
+# A plane is drawn as a grid of PLANE_QUADS x PLANE_QUADS quads per half side (its size[2] is the grid spacing):
+# flat shading needs no finer grid, and a fine grid over GROUND_REACH_M costs milliseconds per render.
+PLANE_QUADS = 4
+GROUND_TEXEL_PX = 256  # the checker texture (2x2 squares): sharp in the lit, mipmapped follow view too
 
 @dataclass(frozen=True)
 class ModelNames:
@@ -101,10 +77,6 @@ class ModelNames:
         ``(segment name, spec geom name or its index as str) -> MuJoCo geom name``.
     contact_geoms : tuple of tuple of str
         For each contact site (``sites_of_kind("contact")`` order), the geoms whose forces it reports.
-    cameras : dict
-        Planar camera name -> MuJoCo camera name.
-    panoramas : dict
-        Spherical camera name -> :class:`Panorama`.
     """
 
     root: str
@@ -112,8 +84,6 @@ class ModelNames:
     joints: tuple[str, ...]
     geoms: dict = field(default_factory=dict)
     contact_geoms: tuple[tuple[str, ...], ...] = ()
-    cameras: dict = field(default_factory=dict)
-    panoramas: dict = field(default_factory=dict)
 
 
 def matrix_to_quat(matrix: np.ndarray) -> np.ndarray:
@@ -121,40 +91,6 @@ def matrix_to_quat(matrix: np.ndarray) -> np.ndarray:
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.asarray(matrix, float).ravel())
     return quat
-
-
-def panorama_lookup(camera: Camera, face_px: int | None = None) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
-    """Map each pixel of a spherical camera's image to a cube face pixel.
-
-    The image is equirectangular in the camera's frame: column c looks at azimuth
-    ``fov_h * (0.5 - (c + 0.5) / W)`` (positive to the left, 0 straight ahead along -z), row r at
-    elevation ``fov_v * (0.5 - (r + 0.5) / H)`` (positive up, along +y).
-
-    Returns
-    -------
-    face_px, face (H, W) index into ``_FACES`` order, row (H, W), col (H, W)
-    """
-    width, height = camera.width_px, camera.height_px
-    fov_h, fov_v = camera.fov_rad
-    if face_px is None:
-        # Two face pixels per panorama pixel at the face centre, so nearest-neighbour sampling does not alias.
-        pixel_rad = min(fov_h / width, fov_v / height)
-        face_px = int(np.clip(np.ceil(2.0 * (np.pi / 2.0) / pixel_rad), 8, 1024))
-    azimuth = fov_h * (0.5 - (np.arange(width) + 0.5) / width)
-    elevation = fov_v * (0.5 - (np.arange(height) + 0.5) / height)
-    az, el = np.meshgrid(azimuth, elevation)
-    # Directions in the camera frame: forward -z, left -x, up +y.
-    directions = np.stack([-np.cos(el) * np.sin(az), np.sin(el), -np.cos(el) * np.cos(az)], axis=-1)
-    rotations = np.stack(list(_FACES.values()))  # (6, 3, 3), columns = face axes in the camera frame
-    local = np.einsum("fji,hwj->hwfi", rotations, directions)  # each direction in each face's frame
-    depth = -local[..., 2]  # how far along each face's viewing axis
-    face = np.argmax(depth, axis=-1)
-    chosen = np.take_along_axis(local, face[..., None, None], axis=2)[..., 0, :]
-    forward = -chosen[..., 2]
-    x, y = chosen[..., 0] / forward, chosen[..., 1] / forward  # in [-1, 1] on the face's image plane
-    col = np.clip(((x + 1.0) / 2.0 * face_px).astype(int), 0, face_px - 1)
-    row = np.clip(((1.0 - y) / 2.0 * face_px).astype(int), 0, face_px - 1)
-    return face_px, face, row, col
 
 
 def build_spec(world: World, body: BodySpec, timestep_s: float = 0.002) -> tuple[mujoco.MjSpec, ModelNames]:
@@ -171,7 +107,7 @@ def build_spec(world: World, body: BodySpec, timestep_s: float = 0.002) -> tuple
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.compiler.autolimits = True
     _options(spec, timestep_s, sticky=world.adhesion_n > 0)
-    _visual(spec, body)
+    _visual(spec, body, world)
     _world(spec, world)
     names = _body(spec, body)
     return spec, names
@@ -214,13 +150,15 @@ def _options(spec: mujoco.MjSpec, timestep_s: float, sticky: bool = False) -> No
     option.tolerance = 1e-10
 
 
-def _visual(spec: mujoco.MjSpec, body: BodySpec) -> None:
+def _visual(spec: mujoco.MjSpec, body: BodySpec, world: World) -> None:
+    # One offscreen buffer holds the follow view, or all the views of one body camera side by side.
     widths, heights = [FOLLOW_SIZE_PX[0]], [FOLLOW_SIZE_PX[1]]
     for camera in body.cameras:
+        check_camera(camera)
         if camera.projection == "spherical":
-            face_px = panorama_lookup(camera)[0]
-            widths.append(face_px)
-            heights.append(face_px)
+            lookup = cube_lookup(camera)
+            widths.append(lookup.face_px * len(lookup.faces))
+            heights.append(lookup.face_px)
         else:
             widths.append(camera.width_px)
             heights.append(camera.height_px)
@@ -229,12 +167,22 @@ def _visual(spec: mujoco.MjSpec, body: BodySpec) -> None:
     spec.visual.headlight.ambient = (0.35, 0.35, 0.35)
     spec.visual.headlight.diffuse = (0.45, 0.45, 0.45)
     spec.visual.headlight.specular = (0.05, 0.05, 0.05)
+    look = world.appearance
+    horizon = look.horizon_rgb if look.horizon_rgb is not None else look.sky_rgb
     spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-                     rgb1=(0.55, 0.72, 0.95), rgb2=(0.95, 0.97, 1.0), width=256, height=256)
-    spec.add_texture(name="sand", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                     rgb1=(0.86, 0.76, 0.56), rgb2=(0.66, 0.57, 0.40), width=256, height=256)
-    ground = spec.add_material(name="ground", texrepeat=(1.0, 1.0), texuniform=True)
-    ground.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "sand"
+                     rgb1=tuple(look.sky_rgb), rgb2=tuple(horizon), width=256, height=256)
+    if look.ground_texture == "checker":
+        # A checker texture of 2x2 squares. On a plane MuJoCo maps texrepeat r to one texture per
+        # 2/r m, origin-aligned, with rgb2 on the square whose corner is at the origin (checked by a test):
+        # r = 1/checker_m gives squares of checker_m, ground_rgb where floor(x/s) + floor(y/s) is even.
+        spec.add_texture(name="sand", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
+                         rgb1=tuple(look.checker_rgb), rgb2=tuple(look.ground_rgb),
+                         width=GROUND_TEXEL_PX, height=GROUND_TEXEL_PX)
+        repeat = 1.0 / look.checker_m
+        ground = spec.add_material(name="ground", texrepeat=(repeat, repeat), texuniform=True)
+        ground.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "sand"
+    else:
+        spec.add_material(name="ground", rgba=(*look.ground_rgb, 1.0))
     spec.add_material(name="wall", rgba=(0.62, 0.55, 0.47, 1.0))
 
 
@@ -254,9 +202,16 @@ def _world(spec: mujoco.MjSpec, world: World) -> None:
                         userdata=(heights / top_m).ravel().tolist())
         worldbody.add_geom(name="world/ground", type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="terrain",
                            material="ground", friction=friction, contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY)
+        # The ground goes on to the horizon around the heightfield, for the eyes only (no contacts, no rays).
+        worldbody.add_geom(name="world/horizon", type=mujoco.mjtGeom.mjGEOM_PLANE, pos=(0.0, 0.0, -HORIZON_DROP_M),
+                           size=(GROUND_REACH_M, GROUND_REACH_M, GROUND_REACH_M / PLANE_QUADS), material="ground",
+                           contype=0, conaffinity=0, group=HORIZON_GROUP)
     else:
-        worldbody.add_geom(name="world/ground", type=mujoco.mjtGeom.mjGEOM_PLANE, size=(half, half, 0.5),
-                           material="ground", friction=friction, contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY)
+        # A plane collides everywhere; its size only bounds its drawing, out to GROUND_REACH_M for the eyes.
+        reach = max(half, GROUND_REACH_M)
+        worldbody.add_geom(name="world/ground", type=mujoco.mjtGeom.mjGEOM_PLANE,
+                           size=(reach, reach, reach / PLANE_QUADS), material="ground", friction=friction,
+                           contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY)
     if ground.kind == "wall":
         worldbody.add_geom(
             name="world/wall", type=mujoco.mjtGeom.mjGEOM_BOX,
@@ -345,14 +300,6 @@ def _body(spec: mujoco.MjSpec, body: BodySpec) -> ModelNames:
         bodies[site.segment].add_site(name=site.name, pos=site.pos_m, size=(0.005, 0.005, 0.005), group=SITE_GROUP,
                                       rgba=rgba.get(site.kind, (0.8, 0.8, 0.8, 1.0)))
     contact_geoms = tuple(_contact_geoms(body, site, geoms) for site in body.sites_of_kind("contact"))
-    cameras, panoramas = {}, {}
-    for camera in body.cameras:
-        mount = bodies[camera.segment]
-        if camera.projection == "planar":
-            _planar_camera(mount, camera)
-            cameras[camera.name] = camera.name
-        else:
-            panoramas[camera.name] = _spherical_camera(mount, camera)
     # Actuators in BodySpec.joints order, named after their joints (MuJoCo numbers them in this order).
     for joint in body.joints:
         actuator = spec.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
@@ -370,7 +317,7 @@ def _body(spec: mujoco.MjSpec, body: BodySpec) -> ModelNames:
         actuator.biasprm = bias
         actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
     return ModelNames(root=body.root.name, free_joint=free_joint, joints=tuple(joints), geoms=geoms,
-                      contact_geoms=contact_geoms, cameras=cameras, panoramas=panoramas)
+                      contact_geoms=contact_geoms)
 
 
 def _contact_geoms(body: BodySpec, site, geoms: dict) -> tuple[str, ...]:
@@ -386,36 +333,3 @@ def _contact_geoms(body: BodySpec, site, geoms: dict) -> tuple[str, ...]:
         raise ConfigError(f"body {body.name!r}, contact site {site.name!r}: geom {site.geom!r} is not on segment "
                           f"{segment.name!r} (its geoms: {', '.join(known)}) nor unique elsewhere")
     return (matches[0],)
-
-
-def _planar_camera(mount: mujoco.MjsBody, camera: Camera) -> None:
-    fov_h, fov_v = camera.fov_rad
-    if not (0 < fov_h < np.pi and 0 < fov_v < np.pi):
-        raise ConfigError(f"camera {camera.name!r}: a planar camera's fov_rad must lie in (0, pi), "
-                          f"got {camera.fov_rad}")
-    cam = mount.add_camera(name=camera.name, pos=camera.pos_m, quat=camera.quat, fovy=float(np.degrees(fov_v)))
-    # Intrinsics let the horizontal and vertical FOV differ from the image's aspect ratio (e.g. 74x19 at
-    # 2 x 0.5 rad): a unit focal length and a sensor of 2 tan(fov / 2) on each axis.
-    cam.sensor_size = (2.0 * np.tan(fov_h / 2.0), 2.0 * np.tan(fov_v / 2.0))
-    cam.focal_length = (1.0, 1.0)
-    cam.resolution = (camera.width_px, camera.height_px)
-
-
-def _spherical_camera(mount: mujoco.MjsBody, camera: Camera) -> Panorama:
-    fov_h, fov_v = camera.fov_rad
-    if not (0 < fov_h <= 2 * np.pi + 1e-9 and 0 < fov_v <= np.pi + 1e-9):
-        raise ConfigError(f"camera {camera.name!r}: a spherical camera's fov_rad must lie in (0, 2 pi] x (0, pi], "
-                          f"got {camera.fov_rad}")
-    face_px, face, rows, cols = panorama_lookup(camera)
-    mount_matrix = quat_to_matrix(camera.quat)
-    used = sorted(set(face.ravel().tolist()))
-    face_names = []
-    labels = list(_FACES)
-    for index in used:
-        name = f"{camera.name}/{labels[index]}"
-        quat = matrix_to_quat(mount_matrix @ _FACES[labels[index]])
-        mount.add_camera(name=name, pos=camera.pos_m, quat=quat, fovy=90.0)
-        face_names.append(name)
-    remap = np.full(len(_FACES), -1)
-    remap[used] = np.arange(len(used))
-    return Panorama(tuple(face_names), face_px, remap[face], rows, cols)

@@ -84,7 +84,7 @@ def test_load_step_read_shapes_and_capabilities():
     assert sensors == {"joint_pos": (4,), "joint_vel": (4,), "joint_torque": (4,), "contact_force": (2, 3),
                        "body_pos": (3,), "body_quat": (4,), "body_linvel": (3,), "body_angvel": (3,),
                        "heading": (1,), "velocity": (2,), "position": (2,), "odour_sites": (2, 3),
-                       "wind_sites": (1, 3)}
+                       "wind_sites": (1, 3), "eye": (16, 64), "pano": (24, 48)}
     assert [(m.name, m.shape) for m in backend.capabilities.motors] == [("joint_targets", (4,)), ("adhesion", (2,))]
     backend.step(10)
     assert backend.time == pytest.approx(10 * 0.002)
@@ -371,7 +371,7 @@ def test_apply_force_pushes_the_body_the_right_way_for_one_step_call():
 def test_body_camera_honours_both_fields_of_view():
     # Poles 4 m ahead of the eye, straight on and 0.6 rad to the left.
     backend = loaded()
-    eye = backend.data.cam_xpos[mujoco.mj_name2id(backend.model, mujoco.mjtObj.mjOBJ_CAMERA, "eye")]
+    eye = backend.read(["body_pos"])["body_pos"][0] + (0.11, 0.0, 0.03)  # the camera's mount on the level root
     poles = tuple(WorldObject("cylinder", (eye[0] + 4 * np.cos(a), 4 * np.sin(a), 1.0), (0.12, 1.0), (1, 0, 0, 1))
                   for a in (0.0, 0.6))
     backend = loaded(World(objects=poles))
