@@ -12,20 +12,29 @@ Two motion models (chosen by :class:`neuronav.world.PointAgents`):
   Timestep 8 ms (the paper's control step).
 
 Heading is clockwise from +y, so an agent at heading h moves along (sin h, cos h).
+
+Eyes: the cameras of :class:`~neuronav.world.PointAgents` are rendered by ray casting
+(:mod:`neuronav.raycast`) for every agent at once, only when a camera is read or rendered. A camera
+sits in the agent's frame: forward f = (sin h, cos h, 0), left l = (-cos h, sin h, 0), up z; its
+position is (x, y, 0) + pos.x f + pos.y l + pos.z up and its frame [f l up] @ R(camera.quat).
+``set_scene_yaw`` turns the world's objects about the vertical axis through the origin (the ground
+stays), as on the physics backends.
 """
 
 from __future__ import annotations
 
 import json
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from neuronav.backend import BackendBase, Capabilities, check_seed
-from neuronav.errors import ConfigError, SimulationError
+from neuronav.body import Camera, quat_to_matrix
+from neuronav.errors import ConfigError, PortError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
+from neuronav.vision import check_camera, grey, pixel_directions
 from neuronav.world import PointAgents, World
 
 
@@ -102,7 +111,11 @@ def default_calibration() -> UnicycleCalibration:
 
 
 class KinematicBackend(BackendBase):
-    """Batched point agents; implements the backend protocol (see docs/architecture.md)."""
+    """Batched point agents; implements the backend protocol (see docs/architecture.md).
+
+    ``capabilities`` (the class attribute) lists the sensors and commands of camera-less agents;
+    after :meth:`load` the instance's own adds one sensor per camera (shape (H, W), "grey [0, 1]").
+    """
 
     capabilities = Capabilities(
         name="kinematic",
@@ -129,14 +142,25 @@ class KinematicBackend(BackendBase):
         self._unicycle_dt_s = float(timestep_s)
         self._agents: PointAgents | None = None
         self._time_s = 0.0
+        self._cameras: dict[str, Camera] = {}
+        self._casters: dict = {}
+        self._scene_yaw_rad = 0.0
 
     # -- protocol ------------------------------------------------------------------------------
     def load(self, world: World, bodies: Sequence[PointAgents]) -> None:
-        """Load one :class:`PointAgents` batch (the world's objects do not affect point agents)."""
+        """Load one :class:`PointAgents` batch (the world's objects do not block point agents; the
+        agents' cameras see them)."""
         if len(bodies) != 1 or not isinstance(bodies[0], PointAgents):
             raise ConfigError("the kinematic backend simulates exactly one PointAgents batch")
+        cameras = self._check_cameras(world, bodies[0].cameras)
         self._agents = bodies[0]
         self.world = world
+        self._cameras = {c.name: c for c in cameras}
+        self._casters = {}  # built on a camera's first read
+        self._scene_yaw_rad = 0.0
+        sensors = tuple(SensorSpec(c.name, (c.height_px, c.width_px), "grey [0, 1]") for c in cameras)
+        self.capabilities = replace(type(self).capabilities, sensors=type(self).capabilities.sensors + sensors,
+                                    can_render=bool(cameras))
         grid = (self.calibration.turn, self.calibration.stride_rad)
         from scipy.interpolate import RegularGridInterpolator  # lazily: start-up cost
 
@@ -218,10 +242,58 @@ class KinematicBackend(BackendBase):
                 out[name] = self.position.copy()
             elif name == "speed":
                 out[name] = np.linalg.norm(self.velocity, axis=1)[:, None]
+            else:
+                out[name] = grey(self.render_batch(name))
         return out
 
     def render(self, camera: str) -> np.ndarray:
-        raise SimulationError("the kinematic backend has no cameras; render with mujoco or pybullet")
+        """Agent 0's uint8 RGB image (H, W, 3) from ``camera``."""
+        return self.render_batch(camera, agents=slice(0, 1))[0]
+
+    def render_batch(self, camera: str, agents: slice | None = None) -> np.ndarray:
+        """Every agent's (or ``agents``') uint8 RGB image (N, H, W, 3) from ``camera``, by ray casting."""
+        spec = self._camera(camera)
+        caster = self._casters.get(camera)
+        if caster is None:
+            from neuronav.raycast import RayCaster  # lazily: only worlds with eyes need it
+
+            caster = self._casters[camera] = RayCaster(self.world, pixel_directions(spec))
+        eyes, rotations = self.camera_frames(camera)
+        if agents is not None:
+            eyes, rotations = eyes[agents], rotations[agents]
+        return caster.render(eyes, rotations, self._scene_yaw_rad)
+
+    def camera_frames(self, camera: str) -> tuple[np.ndarray, np.ndarray]:
+        """Where ``camera`` is on every agent: eye positions (N, 3) and frames (N, 3, 3), columns the
+        camera's x, y, z axes in the world (see the module doc)."""
+        spec = self._camera(camera)
+        sin, cos = np.sin(self.heading), np.cos(self.heading)
+        zero, one = np.zeros_like(sin), np.ones_like(sin)
+        forward, left = np.stack([sin, cos, zero], 1), np.stack([-cos, sin, zero], 1)
+        up = np.stack([zero, zero, one], 1)
+        x, y, z = (float(v) for v in spec.pos_m)
+        eyes = np.stack([self.position[:, 0], self.position[:, 1], zero], 1) + x * forward + y * left + z * up
+        frame = np.stack([forward, left, up], axis=2)  # (N, 3, 3), columns f, l, up
+        # frame @ R(quat) written out per element: the same bits whatever the batch.
+        rotations = (frame[:, :, :, None] * quat_to_matrix(spec.quat)[None, None]).sum(axis=2)
+        return eyes, rotations
+
+    @property
+    def scene_yaw_rad(self) -> float:
+        """How far the world's objects are turned about the vertical axis (see :class:`World`)."""
+        return self._scene_yaw_rad
+
+    def set_scene_yaw(self, yaw_rad: float) -> None:
+        """Turn all of the world's objects to ``yaw_rad`` (counter-clockwise seen from above) about
+        the world's z axis through the origin; the ground and the agents stay where they are."""
+        self._require()
+        try:
+            value = float(yaw_rad)
+        except (TypeError, ValueError):
+            value = np.nan
+        if isinstance(yaw_rad, bool) or not np.isfinite(value):
+            raise ConfigError(f"kinematic set_scene_yaw: yaw_rad must be a finite number, got {yaw_rad!r}")
+        self._scene_yaw_rad = value
 
     def apply_force(self, body: int, site: str, force: np.ndarray) -> None:
         """Push agent ``body`` with a world-frame ``force`` (2 or 3 numbers; z is ignored) during every
@@ -247,6 +319,56 @@ class KinematicBackend(BackendBase):
         self._push[int(body)] += force[:2] * self.timestep / agents.mass_kg
 
     # -- helpers -------------------------------------------------------------------------------
+    @staticmethod
+    def _check_cameras(world: World, cameras) -> tuple[Camera, ...]:
+        """The agents' cameras, refused when the ray caster cannot draw them or their world."""
+        cameras = tuple(cameras)
+        if not cameras:
+            return cameras
+        names = [c.name if isinstance(c, Camera) else None for c in cameras]
+        if None in names:
+            raise ConfigError("PointAgents cameras must be neuronav.body.Camera instances")
+        if len(set(names)) != len(names):
+            raise ConfigError(f"PointAgents cameras: a name is used twice in {names}")
+        clash = set(names) & {s.name for s in KinematicBackend.capabilities.sensors}
+        if clash:
+            raise ConfigError(f"PointAgents cameras: {sorted(clash)} would hide the sensor of that name")
+        ground = world.ground
+        if not ground.is_flat or ground.kind == "wall":
+            raise ConfigError(f"kinematic backend: cameras need a flat ground without a wall (the ray caster's "
+                              f"ground is the plane z = 0), got a {ground.kind!r} ground"
+                              + (f" with roughness_m {ground.roughness_m}" if not ground.is_flat else ""))
+        from neuronav.raycast import check_objects
+
+        check_objects(world.objects)
+        for camera in cameras:
+            if camera.projection not in ("planar", "spherical"):
+                raise ConfigError(f"camera {camera.name!r}: unknown projection {camera.projection!r}; "
+                                  f"allowed: planar, spherical")
+            if not (isinstance(camera.width_px, int) and isinstance(camera.height_px, int)
+                    and camera.width_px > 0 and camera.height_px > 0):
+                raise ConfigError(f"camera {camera.name!r}: image size must be positive whole pixels, "
+                                  f"got {camera.width_px!r} x {camera.height_px!r}")
+            check_camera(camera)
+            position = np.asarray(camera.pos_m, float)
+            quat = np.asarray(camera.quat, float)
+            if position.shape != (3,) or not np.isfinite(position).all():
+                raise ConfigError(f"camera {camera.name!r}: pos_m must be 3 finite numbers, got {camera.pos_m!r}")
+            if quat.shape != (4,) or not np.isfinite(quat).all() or abs(np.linalg.norm(quat) - 1.0) > 1e-6:
+                raise ConfigError(f"camera {camera.name!r}: quat must be a unit quaternion (w, x, y, z), "
+                                  f"got {camera.quat!r}")
+        return cameras
+
+    def _camera(self, camera: str) -> Camera:
+        self._require()
+        spec = self._cameras.get(camera)
+        if spec is None:
+            if not self._cameras:
+                raise SimulationError("the kinematic backend's agents have no cameras: give PointAgents cameras "
+                                      "(neuronav.body.Camera) to render")
+            raise PortError(f"kinematic backend has no camera {camera!r}; available: {', '.join(self._cameras)}")
+        return spec
+
     def _direction(self) -> np.ndarray:
         """Unit vectors of the headings, (sin h, cos h), shape (batch, 2)."""
         # Computed into contiguous rows (strided output halves numpy's trig throughput).

@@ -1,0 +1,161 @@
+"""Visual worlds: the dark landmark, a seeded forest, the compass scene and the look of the sky and ground.
+
+Sources (``reference/parameters.md`` §3, the I2Bot paper's case studies):
+
+- Visual beacon: "landmark black cylinder r 1 m, h 6 m at 25 m; forests of trees around"; the eyes
+  find it by thresholding dark pixels (dark <= 10–25 of 255). :func:`landmark` builds it and
+  :func:`forest` the trees, every part of which is far lighter than that threshold (grey >=
+  :data:`TREE_GREY_MIN`), so only the landmark reads as dark. The trees' sizes are this module's
+  choice (the paper gives none): 4–9 m tall, trunks 0.15–0.35 m in radius.
+- Visual compass: "12 m floor, five coloured objects (cylinder, sphere, two boxes, cone) 13–17 m
+  away" (:func:`compass_scene`); the sphere is the red ball.
+- The sky and the ground (:func:`vision_appearance`): a plain ground (no checker a compass could
+  lock onto) under a sky lighter than it, brightest at the horizon.
+
+Every builder returns backend-agnostic data (:class:`~neuronav.world.WorldObject` tuples or a
+:class:`~neuronav.world.World`): all three backends draw the same scene.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from neuronav.errors import ConfigError
+from neuronav.vision import LUMA_WEIGHTS
+from neuronav.world import Appearance, Ground, World, WorldObject
+
+LANDMARK_RGBA = (0.0, 0.0, 0.0, 1.0)
+# Every part of a tree is at least this light in grey (BT.601): far above a dark-landmark threshold
+# (25 of 255 ≈ 0.1), so a tree is never taken for the landmark.
+TREE_GREY_MIN = 0.25
+_TRUNK_RGB = ((0.50, 0.38, 0.26), (0.56, 0.45, 0.33), (0.46, 0.40, 0.34))
+_CROWN_RGB = ((0.30, 0.55, 0.25), (0.42, 0.62, 0.30), (0.25, 0.48, 0.28), (0.50, 0.60, 0.32))
+CROWNS = ("cone", "sphere")
+
+
+def vision_appearance() -> Appearance:
+    """The look of the visual scenarios: a plain ground (grey ≈ 0.55) under a sky gradient from a pale
+    horizon (grey ≈ 0.91) to a blue zenith (grey ≈ 0.70), everywhere lighter than the ground."""
+    return Appearance(sky_rgb=(0.55, 0.72, 0.95), horizon_rgb=(0.88, 0.92, 0.97), ground_rgb=(0.60, 0.55, 0.45),
+                      ground_texture="plain")
+
+
+def landmark(position_m=(0.0, 25.0), radius_m: float = 1.0, height_m: float = 6.0) -> WorldObject:
+    """The visual beacon's landmark: a black cylinder of ``radius_m`` and ``height_m`` standing on the
+    ground at ``position_m`` (x, y) (parameters.md §3: r 1 m, h 6 m, 25 m away)."""
+    x, y = (float(v) for v in position_m)
+    if not (np.isfinite([x, y]).all() and radius_m > 0 and height_m > 0):
+        raise ConfigError(f"landmark: needs a finite position and radius_m, height_m > 0, got {position_m}, "
+                          f"{radius_m}, {height_m}")
+    return WorldObject("cylinder", (x, y, height_m / 2.0), (float(radius_m), height_m / 2.0), LANDMARK_RGBA)
+
+
+def forest(count: int, seed: int, inner_radius_m: float = 0.0, outer_radius_m: float = 50.0,
+           height_m=(4.0, 9.0), trunk_radius_m=(0.15, 0.35), clear=(), centre_m=(0.0, 0.0),
+           crowns=CROWNS) -> tuple[WorldObject, ...]:
+    """``count`` trees scattered uniformly over a ring about ``centre_m``, none in a ``clear`` zone.
+
+    Each tree is a trunk (a cylinder) and a crown (a cone or a sphere, chosen at random among
+    ``crowns``), 2 objects per tree, the trunk first. A tree of height H has a trunk 0.45 H tall; a
+    cone crown spans 0.3 H to H with a base radius max(3 r, 0.22 H) (r the trunk's radius); a
+    sphere crown of radius 0.3 H has its top at H. Colours vary from tree to tree, every part at
+    least :data:`TREE_GREY_MIN` in grey. Trunks do not overlap.
+
+    Parameters
+    ----------
+    count : int
+        Number of trees (>= 0).
+    seed : int
+        The same seed gives the same forest.
+    inner_radius_m, outer_radius_m : float
+        The ring the trunks stand in (0 <= inner < outer), about ``centre_m``.
+    height_m, trunk_radius_m : (float, float)
+        Ranges (low, high) drawn uniformly per tree.
+    clear : sequence of (x, y, radius_m)
+        Zones no part of a tree reaches (e.g. the corridor from the start to the landmark).
+    centre_m : (float, float)
+    crowns : sequence of str
+        Crown shapes to choose from ("cone", "sphere").
+    """
+    _check_forest(count, inner_radius_m, outer_radius_m, height_m, trunk_radius_m, clear, crowns)
+    rng = np.random.default_rng(seed)
+    zones = np.asarray(clear, float).reshape(-1, 3)
+    placed: list[tuple[float, float, float]] = []  # (x, y, trunk radius)
+    objects: list[WorldObject] = []
+    attempts = 0
+    while len(placed) < count:
+        attempts += 1
+        if attempts > 1000 * max(count, 1):
+            raise ConfigError(f"forest: cannot place {count} trees in the ring {inner_radius_m}–{outer_radius_m} m "
+                              f"outside the clear zones (placed {len(placed)}); widen the ring or clear less")
+        # Uniform over the ring's area: the radius as the square root of a uniform draw in r².
+        radius = np.sqrt(rng.uniform(inner_radius_m ** 2, outer_radius_m ** 2))
+        angle = rng.uniform(0.0, 2.0 * np.pi)
+        x, y = centre_m[0] + radius * np.cos(angle), centre_m[1] + radius * np.sin(angle)
+        height = rng.uniform(*height_m)
+        trunk = rng.uniform(*trunk_radius_m)
+        crown = crowns[rng.integers(len(crowns))]
+        trunk_rgb = _lighter_than_floor(_TRUNK_RGB[rng.integers(len(_TRUNK_RGB))], rng.uniform(0.9, 1.1))
+        crown_rgb = _lighter_than_floor(_CROWN_RGB[rng.integers(len(_CROWN_RGB))], rng.uniform(0.9, 1.1))
+        reach = max(3.0 * trunk, 0.22 * height) if crown == "cone" else 0.3 * height
+        if zones.size and np.any(np.hypot(zones[:, 0] - x, zones[:, 1] - y) < zones[:, 2] + max(reach, trunk)):
+            continue
+        if any(np.hypot(px - x, py - y) < pr + trunk for px, py, pr in placed):
+            continue
+        placed.append((x, y, trunk))
+        objects.append(WorldObject("cylinder", (x, y, 0.225 * height), (trunk, 0.225 * height), (*trunk_rgb, 1.0)))
+        if crown == "cone":
+            objects.append(WorldObject("cone", (x, y, 0.65 * height), (reach, 0.35 * height), (*crown_rgb, 1.0)))
+        else:
+            objects.append(WorldObject("sphere", (x, y, 0.7 * height), (reach,), (*crown_rgb, 1.0)))
+    return tuple(objects)
+
+
+def _lighter_than_floor(rgb, scale: float) -> tuple[float, float, float]:
+    """``rgb`` scaled by ``scale`` (clipped to [0, 1]), raised if needed to grey >= TREE_GREY_MIN."""
+    rgb = np.clip(np.asarray(rgb, float) * scale, 0.0, 1.0)
+    value = float(rgb @ LUMA_WEIGHTS)
+    if value < TREE_GREY_MIN:
+        rgb = np.clip(rgb * (TREE_GREY_MIN / value), 0.0, 1.0)
+    return tuple(float(v) for v in rgb)
+
+
+def _check_forest(count, inner_radius_m, outer_radius_m, height_m, trunk_radius_m, clear, crowns) -> None:
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
+        raise ConfigError(f"forest: count must be a whole number >= 0, got {count!r}")
+    if not (np.isfinite([inner_radius_m, outer_radius_m]).all() and 0 <= inner_radius_m < outer_radius_m):
+        raise ConfigError(f"forest: needs 0 <= inner_radius_m < outer_radius_m, got {inner_radius_m}, {outer_radius_m}")
+    for label, (low, high) in (("height_m", height_m), ("trunk_radius_m", trunk_radius_m)):
+        if not (np.isfinite([low, high]).all() and 0 < low <= high):
+            raise ConfigError(f"forest: {label} must be a range (low, high) with 0 < low <= high, got {(low, high)}")
+    zones = np.asarray(clear, float)
+    if zones.size and (zones.ndim != 2 or zones.shape[1] != 3 or not np.isfinite(zones).all()
+                       or zones[:, 2].min() < 0):
+        raise ConfigError(f"forest: clear must be a list of (x, y, radius_m) with radius_m >= 0, got {clear!r}")
+    if not crowns or any(c not in CROWNS for c in crowns):
+        raise ConfigError(f"forest: crowns must be chosen among {', '.join(CROWNS)}, got {crowns!r}")
+
+
+# The compass scene: (shape, distance m, bearing deg clockwise from +y, size m, rgba). Bearings are
+# uneven so that no turn but a whole one maps the scene onto itself.
+COMPASS_OBJECTS = (
+    ("cylinder", 14.0, 20.0, (1.0, 2.5), (0.15, 0.35, 0.85, 1.0)),
+    ("sphere", 13.0, 95.0, (1.5,), (0.90, 0.10, 0.10, 1.0)),  # the red ball
+    ("box", 16.0, 165.0, (1.5, 1.0, 1.5), (0.20, 0.70, 0.25, 1.0)),
+    ("box", 17.0, 235.0, (1.0, 1.0, 3.0), (0.95, 0.85, 0.15, 1.0)),
+    ("cone", 15.0, 300.0, (1.8, 2.5), (0.60, 0.25, 0.70, 1.0)),
+)
+COMPASS_FLOOR_M = 12.0
+
+
+def compass_scene() -> World:
+    """The visual compass's world: a 12 m floor and five coloured objects (a cylinder, the red ball,
+    two boxes, a cone) 13–17 m from the origin at distinct bearings, each standing on the ground,
+    under :func:`vision_appearance` (parameters.md §3)."""
+    objects = []
+    for shape, distance, bearing_deg, size, rgba in COMPASS_OBJECTS:
+        bearing = np.radians(bearing_deg)
+        half_height = size[0] if shape == "sphere" else size[-1]
+        position = (float(distance * np.sin(bearing)), float(distance * np.cos(bearing)), float(half_height))
+        objects.append(WorldObject(shape, position, tuple(float(s) for s in size), rgba))
+    return World(ground=Ground(size_m=COMPASS_FLOOR_M), objects=tuple(objects), appearance=vision_appearance())
