@@ -30,8 +30,8 @@ sampled nearest (one texel per square). Pixels left at the far plane are the sky
 looks at its target from its distance, with the model's free-camera field of view set to it; it is
 lit (headlight and sun) with the World's sky and floor.
 
-Scene yaw rewrites the world objects' model poses (turned about the world z axis), so their
-collisions follow them.
+Scene yaw turns the mocap body that carries the world's objects (:data:`mjcf.SCENE_BODY`) about
+the world z axis: their collisions follow them, and the turn holds across resets.
 
 Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
 framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to MuJoCo.
@@ -47,7 +47,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from backends.mujoco.mjcf import BODY_GROUP, HORIZON_GROUP, ModelNames, compile_model  # noqa: E402
+from backends.mujoco.mjcf import BODY_GROUP, HORIZON_GROUP, SCENE_BODY, ModelNames, compile_model  # noqa: E402
 from neuronav.articulated import ArticulatedBackend, FollowView  # noqa: E402
 from neuronav.body import BodySpec, Camera, quat_to_matrix  # noqa: E402
 from neuronav.errors import SimulationError  # noqa: E402
@@ -140,7 +140,7 @@ class MujocoBackend(ArticulatedBackend):
         for i in range(data.ncon):
             contact = data.contact[i]
             bodies = model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2]
-            if (bodies[0] == 0) != (bodies[1] == 0):  # exactly one side is the world
+            if self._scenery[bodies[0]] != self._scenery[bodies[1]]:  # exactly one side is the world
                 deepest = max(deepest, -float(contact.dist))
         return deepest
 
@@ -236,15 +236,14 @@ class MujocoBackend(ArticulatedBackend):
         return self._eyes.render(self.model, self.data, views, sees_body)
 
     def _turn_scene(self, yaw_rad: float) -> None:
-        model = self.model
-        c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-        turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        yaw_quat = np.array([np.cos(yaw_rad / 2.0), 0.0, 0.0, np.sin(yaw_rad / 2.0)])
-        for geom, pos, quat in zip(self._object_geoms, self._object_pos, self._object_quat, strict=True):
-            model.geom_pos[geom] = turn @ pos
-            mujoco.mju_mulQuat(model.geom_quat[geom], yaw_quat, quat)
+        if self._scene_body < 0:
+            return  # no objects to turn
+        quat = np.array([np.cos(yaw_rad / 2.0), 0.0, 0.0, np.sin(yaw_rad / 2.0)])
+        # The mocap pose now, and the model's (which a reset copies into the mocap pose): the turn holds.
+        self.data.mocap_quat[self.model.body_mocapid[self._scene_body]] = quat
+        self.model.body_quat[self._scene_body] = quat
         # Poses and contacts of the turned scene; the solved forces are recomputed when read.
-        mujoco.mj_forward(model, self.data)
+        mujoco.mj_forward(self.model, self.data)
         self._forces_current = False
 
     def _queue_force(self, segment: str, point_m: np.ndarray, force_n: np.ndarray) -> None:
@@ -281,9 +280,9 @@ class MujocoBackend(ArticulatedBackend):
             self._site_of_geom[geom_ids] = index
             self._site_geoms.append(geom_ids)
         self._camera_segments = {c.name: int(ids(mujoco.mjtObj.mjOBJ_BODY, [c.segment])[0]) for c in body.cameras}
-        self._object_geoms = ids(mujoco.mjtObj.mjOBJ_GEOM, [f"world/object{i}" for i in range(len(world.objects))])
-        self._object_pos = model.geom_pos[self._object_geoms].copy()
-        self._object_quat = model.geom_quat[self._object_geoms].copy()
+        self._scene_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, SCENE_BODY)
+        # The scenery: the world body and the objects' mocap body (reset's overlap check is between it and the body).
+        self._scenery = np.isin(np.arange(model.nbody), [0, self._scene_body])
         self._follow_option = mujoco.MjvOption()
         self._follow_option.geomgroup[HORIZON_GROUP] = 1
         self._odour = ids(mujoco.mjtObj.mjOBJ_SITE, [s.name for s in body.sites_of_kind("odour")])

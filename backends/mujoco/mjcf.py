@@ -24,6 +24,7 @@ What the model contains
   physics options (timestep, integrator, solver). The ground plane is drawn out to
   :data:`neuronav.vision.GROUND_REACH_M` (a plane collides everywhere; its size only bounds the
   drawing); around a heightfield a visual-only plane (group ``HORIZON_GROUP``) carries the ground on.
+  The objects are geoms of one mocap body at the origin (``SCENE_BODY``), turned for the scene yaw.
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ BODY_CONTYPE, BODY_CONAFFINITY = 1, 0
 WORLD_CONTYPE, WORLD_CONAFFINITY = 1, 1
 BODY_GROUP = 1  # world geoms stay in group 0, so rays and renders can tell them apart
 SITE_GROUP = 4  # hidden in renders (MuJoCo shows groups 0-2 by default)
+SCENE_BODY = "world/scene"  # the mocap body that carries the world's objects
 HORIZON_GROUP = 3  # the visual-only ground around a heightfield: drawn, never hit by rays
 HORIZON_DROP_M = 1e-3  # that plane sits just under z = 0, so the heightfield draws over it
 # A plane is drawn as a grid of PLANE_QUADS x PLANE_QUADS quads per half side (its size[2] is the grid spacing):
@@ -203,12 +205,13 @@ def _world(spec: mujoco.MjSpec, world: World) -> None:
         worldbody.add_geom(name="world/ground", type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="terrain",
                            material="ground", friction=friction, contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY)
         # The ground goes on to the horizon around the heightfield, for the eyes only (no contacts, no rays).
+        horizon_m = _plane_half_m(GROUND_REACH_M, world.appearance)
         worldbody.add_geom(name="world/horizon", type=mujoco.mjtGeom.mjGEOM_PLANE, pos=(0.0, 0.0, -HORIZON_DROP_M),
-                           size=(GROUND_REACH_M, GROUND_REACH_M, GROUND_REACH_M / PLANE_QUADS), material="ground",
+                           size=(horizon_m, horizon_m, horizon_m / PLANE_QUADS), material="ground",
                            contype=0, conaffinity=0, group=HORIZON_GROUP)
     else:
         # A plane collides everywhere; its size only bounds its drawing, out to GROUND_REACH_M for the eyes.
-        reach = max(half, GROUND_REACH_M)
+        reach = _plane_half_m(max(half, GROUND_REACH_M), world.appearance)
         worldbody.add_geom(name="world/ground", type=mujoco.mjtGeom.mjGEOM_PLANE,
                            size=(reach, reach, reach / PLANE_QUADS), material="ground", friction=friction,
                            contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY)
@@ -218,6 +221,9 @@ def _world(spec: mujoco.MjSpec, world: World) -> None:
             size=(WALL_THICKNESS_M / 2.0, half, ground.wall_height_m / 2.0),
             pos=(ground.wall_distance_m + WALL_THICKNESS_M / 2.0, 0.0, ground.wall_height_m / 2.0),
             material="wall", friction=friction, contype=WORLD_CONTYPE, conaffinity=WORLD_CONAFFINITY)
+    # The objects hang from one mocap body at the origin: turning it turns them all about the world z axis
+    # (World's scene yaw), and their collisions follow (the world body's own geoms are indexed once, at compile).
+    scene = worldbody.add_body(name=SCENE_BODY, mocap=True) if world.objects else None
     for index, obj in enumerate(world.objects):
         name = f"world/object{index}"
         common = dict(name=name, pos=tuple(obj.position_m), rgba=tuple(obj.rgba), friction=friction,
@@ -228,11 +234,11 @@ def _world(spec: mujoco.MjSpec, world: World) -> None:
             raise ConfigError(f"world object {index} ({obj.shape}): size_m needs {expected} positive values, "
                               f"got {size}")
         if obj.shape == "box":
-            worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=size, **common)
+            scene.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=size, **common)
         elif obj.shape == "cylinder":
-            worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=(*size, 0.0), **common)
+            scene.add_geom(type=mujoco.mjtGeom.mjGEOM_CYLINDER, size=(*size, 0.0), **common)
         elif obj.shape == "sphere":
-            worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=(size[0], 0.0, 0.0), **common)
+            scene.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=(size[0], 0.0, 0.0), **common)
         else:
             # MuJoCo has no cone primitive: a convex mesh (apex + a 32-gon base) is exact up to the polygon.
             radius, half_height = size
@@ -241,7 +247,17 @@ def _world(spec: mujoco.MjSpec, world: World) -> None:
                                     np.full(CONE_EDGES, -half_height)])
             vertices = np.vstack([[0.0, 0.0, half_height], ring])
             spec.add_mesh(name=f"{name}/mesh", uservert=vertices.ravel().tolist())
-            worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}/mesh", **common)
+            scene.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}/mesh", **common)
+
+
+def _plane_half_m(reach_m: float, appearance) -> float:
+    """A plane's half size of at least ``reach_m``, a whole number of checker periods (2 checker_m).
+
+    MuJoCo starts a plane's texture at its corner: a whole number of periods puts a square's corner
+    at the origin.
+    """
+    period = 2.0 * appearance.checker_m
+    return float(np.ceil(reach_m / period - 1e-9) * period)
 
 
 _GEOM_TYPES = {
