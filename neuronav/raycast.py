@@ -18,8 +18,8 @@ stays): a ray is tested against the declared objects after turning it by the opp
 Speed: rays are grouped in square tiles of pixels, each with a bounding cone of directions; an
 object is tested only on the (agent, tile) pairs whose cone meets the object's bounding sphere, so
 a small object far away costs a few tiles, not the whole image. Everything is array operations
-over agents (a loop over the objects only), in chunks of agents that keep memory near
-``MAX_RAYS_PER_CHUNK`` rays (about 300 MB at most). Results do not depend on the batch: an agent
+over agents and objects (a loop over the shapes only), in chunks of agents, and of tested rays,
+of at most ``MAX_RAYS_PER_CHUNK`` rays (memory stays near 300 MB at most). Results do not depend on the batch: an agent
 renders the same image alone or among a thousand.
 """
 
@@ -34,7 +34,7 @@ from neuronav.world import World, WorldObject
 # Rays per chunk of agents: each float64 array over a chunk is 8 MB; the ground, the sky and the
 # hit bookkeeping hold a few dozen of them.
 MAX_RAYS_PER_CHUNK = 1 << 20
-TILE_PX = 8
+TILE_PX = 6
 # Palette slots before the objects' colours: the sky (painted from its direction), the ground, its checker.
 _SKY, _GROUND, _CHECKER, _FIRST_OBJECT = 0, 1, 2, 3
 _SIZES = {"box": 3, "cylinder": 2, "cone": 2, "sphere": 1}
@@ -88,6 +88,11 @@ class RayCaster:
         self._tiles(tile_px)
         self._centres = np.array([o.position_m for o in self.objects], float).reshape(-1, 3)
         self._radii = np.array([bounding_radius_m(o) for o in self.objects], float)
+        self._sizes = np.zeros((len(self.objects), 3))
+        for k, obj in enumerate(self.objects):
+            self._sizes[k, :len(obj.size_m)] = obj.size_m
+        shapes = np.array([o.shape for o in self.objects])
+        self._by_shape = {shape: np.flatnonzero(shapes == shape) for shape in _SIZES if (shapes == shape).any()}
         look = self.appearance
         fixed = [look.sky_rgb, look.ground_rgb, look.checker_rgb]
         self._palette = to_uint8(np.array(fixed + [o.rgba[:3] for o in self.objects], float))
@@ -111,6 +116,7 @@ class RayCaster:
         cosines = np.clip(np.einsum("tkc,tc->tk", rays, axis), -1.0, 1.0)
         self._tile_axis = axis
         self._tile_half_rad = np.where(norm[:, 0] > 1e-9, np.arccos(cosines.min(axis=1)), np.pi) + 1e-6
+        self._tile_cos, self._tile_sin = np.cos(self._tile_half_rad), np.sin(self._tile_half_rad)
 
     def render(self, eyes_m: np.ndarray, rotations: np.ndarray, scene_yaw_rad: float = 0.0) -> np.ndarray:
         """uint8 RGB images (N, H, W, 3) seen from ``eyes_m`` (N, 3) with camera frames ``rotations``
@@ -140,7 +146,7 @@ class RayCaster:
         slot = np.full((n, pixels), _SKY, np.int32)
         self._ground(eyes, world, best_t, slot)
         if self.objects:
-            self._objects(eyes, rotations, yaw, best_t, slot)
+            self._objects(eyes, rotations, world, yaw, best_t, slot)
         image = self._palette[slot]
         sky = slot == _SKY
         if self._plain_sky is None and sky.any():
@@ -164,45 +170,69 @@ class RayCaster:
             odd = (np.floor(x / size) + np.floor(y / size)) % 2 == 1
             slot[hit] = np.where(odd, _CHECKER, _GROUND)
 
-    def _objects(self, eyes: np.ndarray, rotations: np.ndarray, yaw: float, best_t: np.ndarray,
+    def _objects(self, eyes: np.ndarray, rotations: np.ndarray, world: list, yaw: float, best_t: np.ndarray,
                  slot: np.ndarray) -> None:
-        """Each object on the (agent, tile) pairs whose cone of rays meets its bounding sphere."""
+        """All objects of a shape at once, on the (object, agent, tile) triples whose cone of rays
+        meets the object's bounding sphere; the nearest hit wins each pixel."""
         c, s = np.cos(yaw), np.sin(yaw)
         # The rays in the objects' declared frame: turned by -yaw about z (origins and directions).
         eyes_local = np.stack([c * eyes[:, 0] + s * eyes[:, 1], -s * eyes[:, 0] + c * eyes[:, 1], eyes[:, 2]], axis=1)
-        axis = self._tile_axis
-        # Tile axes in the objects' frame: rotation then the turn by -yaw, per agent, shape (n, T, 3).
-        axes_world = np.einsum("nij,tj->nti", rotations, axis)
+        local = world if yaw == 0.0 else [c * world[0] + s * world[1], -s * world[0] + c * world[1], world[2]]
+        local = [component.reshape(-1) for component in local]
+        seen = self._seen(eyes_local, rotations, c, s)  # (O, n, T)
+        best_flat, slot_flat = best_t.reshape(-1), slot.reshape(-1)
+        step = max(1, MAX_RAYS_PER_CHUNK // self._tile_pixels.shape[1])  # triples per batch of tested rays
+        for shape, index in self._by_shape.items():
+            triples = np.nonzero(seen[index])
+            for start in range(0, triples[0].size, step):
+                k, agent, tile = (part[start:start + step] for part in triples)
+                self._hits(shape, index[k], agent, tile, local, eyes_local, best_flat, slot_flat)
+
+    def _hits(self, shape: str, k: np.ndarray, agent: np.ndarray, tile: np.ndarray, local: list,
+              eyes_local: np.ndarray, best_flat: np.ndarray, slot_flat: np.ndarray) -> None:
+        """Objects ``k`` (all of one shape) on the rays of (``agent``, ``tile``): nearer hits win their pixels."""
+        flat = agent[:, None] * self._rays.shape[0] + self._tile_pixels[tile]  # (m, K)
+        direction = tuple(component[flat] for component in local)
+        origin = tuple((eyes_local[agent, i] - self._centres[k, i])[:, None] for i in range(3))
+        size = [self._sizes[k, i, None] for i in range(_SIZES[shape])]
+        t = _INTERSECT[shape](origin, direction, size)
+        hit = np.isfinite(t)
+        flat, t, owner = flat[hit], t[hit], np.broadcast_to((_FIRST_OBJECT + k)[:, None], hit.shape)[hit]
+        # Nearest wins: write the nearer candidates; where two objects of this batch share a pixel the
+        # later write may be the farther one, so write again those still nearer, until none is.
+        nearer = t < best_flat[flat]
+        while nearer.any():
+            flat, t, owner = flat[nearer], t[nearer], owner[nearer]
+            best_flat[flat] = t
+            slot_flat[flat] = owner
+            nearer = t < best_flat[flat]
+
+    def _seen(self, eyes_local: np.ndarray, rotations: np.ndarray, c: float, s: float) -> np.ndarray:
+        """Whether a tile's cone of rays can meet an object's bounding sphere, bool (O, n, T).
+
+        The angle between the tile's axis and the direction to the sphere's centre must be at most
+        the tile's half angle plus the sphere's angular radius: compared as cosines,
+        cos(axis, centre) >= cos(half + reach), with a margin so that no hit is ever culled.
+        """
+        # Tile axes in the objects' frame: the camera rotation, then the turn by -yaw, (n, T, 3).
+        axes_world = np.einsum("nij,tj->nti", rotations, self._tile_axis)
         axes = np.stack([c * axes_world[..., 0] + s * axes_world[..., 1],
                          -s * axes_world[..., 0] + c * axes_world[..., 1], axes_world[..., 2]], axis=-1)
-        pixels = self._rays.shape[0]
-        for k, obj in enumerate(self.objects):
-            to_centre = self._centres[k] - eyes_local  # (n, 3)
-            distance = np.linalg.norm(to_centre, axis=1)
-            radius = self._radii[k]
-            inside = distance <= radius
-            with np.errstate(divide="ignore", invalid="ignore"):
-                unit = to_centre / distance[:, None]
-                reach = np.where(inside, np.pi, np.arcsin(np.clip(radius / distance, 0.0, 1.0)))
-            cosine = np.clip(np.einsum("nti,ni->nt", axes, np.where(inside[:, None], 0.0, unit)), -1.0, 1.0)
-            seen = (np.arccos(cosine) - self._tile_half_rad[None] <= reach[:, None] + 1e-6)
-            seen &= (distance - radius <= FAR_M)[:, None]
-            agent, tile = np.nonzero(seen)
-            if agent.size == 0:
-                continue
-            members = self._tile_pixels[tile]  # (m, K)
-            d = self._rays[members]  # (m, K, 3) camera frame
-            r = rotations[agent]  # (m, 3, 3)
-            dw = [d[..., 0] * r[:, i, None, 0] + d[..., 1] * r[:, i, None, 1] + d[..., 2] * r[:, i, None, 2]
-                  for i in range(3)]
-            direction = (c * dw[0] + s * dw[1], -s * dw[0] + c * dw[1], dw[2])
-            origin = tuple((eyes_local[agent, i] - self._centres[k, i])[:, None] for i in range(3))
-            t = _INTERSECT[obj.shape](origin, direction, np.asarray(obj.size_m, float))
-            flat = agent[:, None] * pixels + members
-            current = best_t.reshape(-1)[flat]
-            nearer = t < current
-            best_t.reshape(-1)[flat[nearer]] = t[nearer]
-            slot.reshape(-1)[flat[nearer]] = _FIRST_OBJECT + k
+        to_centre = self._centres[None] - eyes_local[:, None]  # (n, O, 3)
+        distance = np.linalg.norm(to_centre, axis=2)
+        inside = distance <= self._radii
+        with np.errstate(divide="ignore", invalid="ignore"):
+            unit = np.where(inside[..., None], 0.0, to_centre / distance[..., None])
+            sin_reach = np.where(inside, 0.0, self._radii / distance)
+        cos_reach = np.sqrt(1.0 - sin_reach ** 2)
+        cosine = unit @ axes.transpose(0, 2, 1)  # (n, O, T)
+        threshold = cos_reach[..., None] * self._tile_cos - sin_reach[..., None] * self._tile_sin
+        # Inside a bounding sphere, or a tile wider than a right angle: every ray is tested.
+        threshold[inside] = -2.0
+        threshold[:, :, self._tile_half_rad >= np.pi / 2] = -2.0
+        seen = cosine >= threshold - 1e-6
+        seen &= (distance - self._radii <= FAR_M)[..., None]
+        return seen.transpose(1, 0, 2)
 
 
 # -- intersections: rays (origin relative to the object's position, unit direction), each a tuple

@@ -160,8 +160,9 @@ def test_chunks_of_agents_change_nothing(monkeypatch):
     headings = np.linspace(-3.0, 3.0, 5)
     eyes, rotations = np.tile([0.0, 0.0, EYE_HEIGHT_M], (5, 1)), np.stack([level(h) for h in headings])
     whole = caster.render(eyes, rotations)
-    monkeypatch.setattr(raycast, "MAX_RAYS_PER_CHUNK", 2 * 72 * 72)  # chunks of 2 agents
-    np.testing.assert_array_equal(caster.render(eyes, rotations), whole)
+    for rays in (2 * 72 * 72, 100):  # chunks of 2 agents; of 1 agent and 2 tiles' rays at a time
+        monkeypatch.setattr(raycast, "MAX_RAYS_PER_CHUNK", rays)
+        np.testing.assert_array_equal(caster.render(eyes, rotations), whole)
 
 
 def test_bad_objects_and_poses_are_refused():
