@@ -96,7 +96,7 @@ class RayCaster:
         look = self.appearance
         fixed = [look.sky_rgb, look.ground_rgb, look.checker_rgb]
         self._palette = to_uint8(np.array(fixed + [o.rgba[:3] for o in self.objects], float))
-        self._plain_sky = to_uint8(look.sky_rgb) if look.horizon_rgb is None else None
+        self._sky_gradient = look.horizon_rgb is not None  # else the palette's sky slot is the sky
 
     def _tiles(self, tile_px: int) -> None:
         """Group pixels into tiles (padded by repeating a member) with a bounding cone each."""
@@ -149,7 +149,8 @@ class RayCaster:
             self._objects(eyes, rotations, world, yaw, best_t, slot)
         image = self._palette[slot]
         sky = slot == _SKY
-        if self._plain_sky is None and sky.any():
+        # The gradient sky by each pixel's elevation, by the one formula of vision.sky_rgb.
+        if self._sky_gradient and sky.any():
             image[sky] = to_uint8(sky_rgb(self.appearance, np.stack([w[sky] for w in world], axis=-1)))
         return image
 
