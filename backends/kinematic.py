@@ -34,7 +34,7 @@ from neuronav.backend import BackendBase, Capabilities, check_seed
 from neuronav.body import Camera, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
-from neuronav.vision import check_camera, grey, pixel_directions
+from neuronav.vision import average_samples, check_camera, grey, pixel_directions, sampling_camera
 from neuronav.world import PointAgents, World
 
 
@@ -257,11 +257,15 @@ class KinematicBackend(BackendBase):
         if caster is None:
             from neuronav.raycast import RayCaster  # lazily: only worlds with eyes need it
 
-            caster = self._casters[camera] = RayCaster(self.world, pixel_directions(spec))
+            caster = self._casters[camera] = RayCaster(self.world, pixel_directions(sampling_camera(spec)))
         eyes, rotations = self.camera_frames(camera)
         if agents is not None:
             eyes, rotations = eyes[agents], rotations[agents]
-        return caster.render(eyes, rotations, self._scene_yaw_rad)
+        samples = caster.render(eyes, rotations, self._scene_yaw_rad)
+        if spec.supersample == 1:
+            return samples
+        # Each agent's k x k samples per pixel averaged, as every backend does (neuronav.vision).
+        return np.stack([average_samples(image, spec.supersample) for image in samples])
 
     def camera_frames(self, camera: str) -> tuple[np.ndarray, np.ndarray]:
         """Where ``camera`` is on every agent: eye positions (N, 3) and frames (N, 3, 3), columns the

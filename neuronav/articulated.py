@@ -465,7 +465,8 @@ class ArticulatedBackend(BackendBase):
         """Where a body camera is now: its position (3,) and frame axes as columns (3, 3), world coordinates."""
         raise NotImplementedError
 
-    def _render_views(self, views: list[View], sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:  # pragma: no cover
+    def _render_views(self, views: list[View],  # pragma: no cover
+                      sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
         """Each view rendered flat-shaded (every surface in its rgba, no lights): a uint8 image (h, w, 3)
         and a bool mask (h, w) of the pixels where nothing was hit (the caller paints the sky there);
         the body is left out unless ``sees_body``."""

@@ -159,7 +159,10 @@ class Camera:
 
     Pixel rays, projections and colours follow :mod:`neuronav.vision` on every backend. A body
     camera does not see its own body unless ``sees_body`` (an ant's eye would otherwise see its
-    antenna as a dark wedge).
+    antenna as a dark wedge). Each pixel is the mean of ``supersample`` × ``supersample`` rays
+    spread evenly over it: its colour over its solid angle, as an ommatidium averages over its
+    acceptance angle, so an edge moving across a pixel changes it smoothly (a coarse panorama's
+    Zernike phase would otherwise jump by degrees as objects snap from one column to the next).
     """
 
     name: str
@@ -171,6 +174,7 @@ class Camera:
     fov_rad: tuple[float, float] = (1.0, 1.0)
     projection: str = "planar"
     sees_body: bool = False
+    supersample: int = 1
 
 
 @dataclass(frozen=True)
@@ -235,6 +239,9 @@ class BodySpec:
                                   f"{camera.projection!r}; allowed: {', '.join(PROJECTIONS)}")
             if camera.width_px < 1 or camera.height_px < 1:
                 raise ConfigError(f"body {self.name!r}, camera {camera.name!r}: image size must be positive")
+            if isinstance(camera.supersample, bool) or camera.supersample not in range(1, 9):
+                raise ConfigError(f"body {self.name!r}, camera {camera.name!r}: supersample must be an int in "
+                                  f"1..8 (rays per pixel side), got {camera.supersample!r}")
 
     # -- queries ----------------------------------------------------------------------------------
     @property

@@ -136,14 +136,19 @@ def _check_forest(count, inner_radius_m, outer_radius_m, height_m, trunk_radius_
         raise ConfigError(f"forest: crowns must be chosen among {', '.join(CROWNS)}, got {crowns!r}")
 
 
-# The compass scene: (shape, distance m, bearing deg clockwise from +y, size m, rgba). Bearings are
-# uneven so that no turn but a whole one maps the scene onto itself.
+# The compass scene: (shape, distance m, bearing deg clockwise from +y, size m, rgba). The objects
+# stand within half a turn (bearings -70° to 80°, unevenly spaced, so no turn but a whole one maps
+# the scene onto itself) and are large (3–6 m across, 6–10 m tall): the panorama's first angular
+# harmonic, which the Zernike compass's phase reads, is then strong. Spread evenly around and half
+# this size, the objects' contributions to Z_{7,1} nearly cancelled: its amplitude was a few
+# pixels' worth, and its phase moved by up to ±7° for a 0.5° turn, 10° apart between engines
+# (measured; now within 0.7° of the turn and 1.3° between engines).
 COMPASS_OBJECTS = (
-    ("cylinder", 14.0, 20.0, (1.0, 2.5), (0.15, 0.35, 0.85, 1.0)),
-    ("sphere", 13.0, 95.0, (1.5,), (0.90, 0.10, 0.10, 1.0)),  # the red ball
-    ("box", 16.0, 165.0, (1.5, 1.0, 1.5), (0.20, 0.70, 0.25, 1.0)),
-    ("box", 17.0, 235.0, (1.0, 1.0, 3.0), (0.95, 0.85, 0.15, 1.0)),
-    ("cone", 15.0, 300.0, (1.8, 2.5), (0.60, 0.25, 0.70, 1.0)),
+    ("cylinder", 14.0, -70.0, (2.0, 5.0), (0.15, 0.35, 0.85, 1.0)),
+    ("sphere", 13.0, 0.0, (3.0,), (0.90, 0.10, 0.10, 1.0)),  # the red ball, straight ahead of +y
+    ("box", 16.0, 40.0, (3.0, 2.0, 3.0), (0.20, 0.70, 0.25, 1.0)),
+    ("box", 17.0, -30.0, (2.0, 2.0, 6.0), (0.95, 0.85, 0.15, 1.0)),
+    ("cone", 15.0, 80.0, (3.6, 5.0), (0.60, 0.25, 0.70, 1.0)),
 )
 COMPASS_FLOOR_M = 12.0
 

@@ -19,12 +19,15 @@ landmark lands in the same image column on MuJoCo, PyBullet and the kinematic ra
 - **Sky.** Where no surface is hit, the pixel shows :func:`sky_rgb` of its direction: the
   World's :class:`~neuronav.world.Appearance` (a plain colour or a gradient in elevation), computed
   here, not by an engine.
+- **Supersampling.** A camera with ``supersample`` k renders (or casts) k × k samples per pixel on
+  the same rules (:func:`sampling_camera`: the camera at k times the resolution) and averages them
+  (:func:`average_samples`); the sky is painted per sample.
 - **Grey.** A camera read as a sensor is its image in grey, float in [0, 1] (:func:`grey`).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -54,7 +57,9 @@ CUBE_FACE_ROTATIONS = np.array([np.column_stack(axes) for axes in _FACE_AXES], d
 
 
 def check_camera(camera: Camera) -> None:
-    """Refuse fields of view no camera model of this module can render."""
+    """Refuse fields of view no camera model of this module can render, and supersampling outside 1..8."""
+    if isinstance(camera.supersample, bool) or camera.supersample not in range(1, 9):
+        raise ConfigError(f"camera {camera.name!r}: supersample must be an int in 1..8, got {camera.supersample!r}")
     h, v = camera.fov_rad
     if camera.projection == "planar" and not (0 < h < np.pi and 0 < v < np.pi):
         raise ConfigError(f"camera {camera.name!r}: a planar camera needs 0 < fov < π in both directions, "
@@ -94,6 +99,24 @@ def _directions(camera: Camera) -> np.ndarray:
     azimuth, elevation = np.meshgrid((u - 0.5) * fov_h, (0.5 - t) * fov_v)
     return np.stack([np.cos(elevation) * np.sin(azimuth), np.sin(elevation),
                      -np.cos(elevation) * np.cos(azimuth)], axis=-1)
+
+
+def sampling_camera(camera: Camera) -> Camera:
+    """The camera whose pixels are ``camera``'s samples: ``supersample`` times the width and height, one
+    sample per pixel (``camera`` itself when it takes one sample per pixel)."""
+    k = camera.supersample
+    if k == 1:
+        return camera
+    return replace(camera, width_px=camera.width_px * k, height_px=camera.height_px * k, supersample=1)
+
+
+def average_samples(samples: np.ndarray, k: int) -> np.ndarray:
+    """A (H·k, W·k, ...) image of samples as the (H, W, ...) image of their k × k means (uint8 in, uint8 out)."""
+    if k == 1:
+        return samples
+    h, w = samples.shape[0] // k, samples.shape[1] // k
+    means = samples.reshape(h, k, w, k, *samples.shape[2:]).mean(axis=(1, 3))
+    return np.rint(means).astype(np.uint8) if samples.dtype == np.uint8 else means
 
 
 @dataclass(frozen=True)
@@ -143,9 +166,11 @@ class CubeLookup:
 def cube_lookup(camera: Camera) -> CubeLookup:
     """How to sample a spherical camera's image from 90° cube faces rendered at its pose.
 
-    The face resolution matches the image's finest angular step (one face pixel per image pixel
-    at the face centre, at least 8), so a face costs no more pixels than the image needs.
+    The face resolution matches the finest angular step of the camera's samples (one face pixel per
+    sample at the face centre, at least 8), so a face costs no more pixels than the image needs.
+    The lookup is per sample: shape (H·k, W·k) for ``supersample`` k.
     """
+    camera = sampling_camera(camera)
     directions = pixel_directions(camera)
     # Each direction in each face's frame: that face sees it when its -z component is the largest.
     local = np.einsum("fji,hwj->hwfi", CUBE_FACE_ROTATIONS, directions)
@@ -166,7 +191,8 @@ def camera_views(camera: Camera, eye_m: np.ndarray, rotation: np.ndarray,
     """The planar renders that make ``camera``'s image at this pose: itself, or its cube faces."""
     eye_m, rotation = np.asarray(eye_m, float), np.asarray(rotation, float)
     if camera.projection == "planar":
-        return [View(eye_m, rotation, camera.width_px, camera.height_px, tuple(camera.fov_rad))]
+        sampled = sampling_camera(camera)
+        return [View(eye_m, rotation, sampled.width_px, sampled.height_px, tuple(camera.fov_rad))]
     lookup = lookup if lookup is not None else cube_lookup(camera)
     return [View(eye_m, rotation @ CUBE_FACE_ROTATIONS[k], lookup.face_px, lookup.face_px, (np.pi / 2, np.pi / 2))
             for k in lookup.faces]
@@ -213,9 +239,9 @@ def compose_image(camera: Camera, rotation: np.ndarray, rendered: list[tuple[np.
         rgb, sky = rgbs[lookup.slot, lookup.row, lookup.col], skies[lookup.slot, lookup.row, lookup.col]
     image = np.array(rgb, dtype=np.uint8, copy=True)
     if sky.any():
-        directions = pixel_directions(camera)[sky] @ np.asarray(rotation, float).T
+        directions = pixel_directions(sampling_camera(camera))[sky] @ np.asarray(rotation, float).T
         image[sky] = to_uint8(sky_rgb(appearance, directions))
-    return image
+    return average_samples(image, camera.supersample)
 
 
 def to_uint8(rgb: np.ndarray) -> np.ndarray:

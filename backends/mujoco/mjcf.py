@@ -162,8 +162,8 @@ def _visual(spec: mujoco.MjSpec, body: BodySpec, world: World) -> None:
             widths.append(lookup.face_px * len(lookup.faces))
             heights.append(lookup.face_px)
         else:
-            widths.append(camera.width_px)
-            heights.append(camera.height_px)
+            widths.append(camera.width_px * camera.supersample)
+            heights.append(camera.height_px * camera.supersample)
     spec.visual.global_.offwidth = int(max(widths))
     spec.visual.global_.offheight = int(max(heights))
     spec.visual.headlight.ambient = (0.35, 0.35, 0.35)

@@ -464,7 +464,7 @@ def _cameras(scale: float) -> tuple[Camera, ...]:
     position = centre + level @ np.array([0.0, 0.0, 0.12 * scale])
     quat = _quat_from_matrix(level @ quat_to_matrix(_camera_quat((1, 0, 0), (0, 0, 1))))
     cameras.append(Camera("panorama", "head", tuple(float(v) for v in position), quat, width_px=72, height_px=72,
-                          fov_rad=(2.0 * math.pi, math.pi), projection="spherical"))
+                          fov_rad=(2.0 * math.pi, math.pi), projection="spherical", supersample=4))
     return tuple(cameras)
 
 
