@@ -4,8 +4,9 @@ On one core (Mesa's software rasteriser limited to one thread with ``LP_NUM_THRE
 under ``taskset -c 0`` to pin the process too), in the visual compass scene (five objects, plain
 ground, sky gradient), the ant standing at rest:
 
-- per backend (kinematic unicycle, MuJoCo, PyBullet): milliseconds per binocular pair
-  (``eye_L`` + ``eye_R``, 74×19 each) and per panorama (72×72, the whole sphere), each frame read
+- per backend (kinematic unicycle, MuJoCo, PyBullet): milliseconds (and frames per second) per binocular pair
+  (``eye_L`` + ``eye_R``, 74×19 each) and per panorama (72×72, the whole sphere, 4 × 4 rays per
+  pixel), each frame read
   through the sensor port (render, compose, grey), median of ``--frames`` reads, the body turned a
   little between reads so nothing is cached;
 - the kinematic backend's batch: panoramas and binocular pairs per second for 1000 agents read at once;
@@ -92,7 +93,8 @@ def main() -> None:
     parser.add_argument("--backends", default="kinematic,mujoco,pybullet")
     args = parser.parse_args()
     names = [n for n in args.backends.split(",") if n]
-    print(f"{'backend':<10} {'eye pair ms':>12} {'panorama ms':>12} {'beacon RTF':>11}")
+    print(f"{'backend':<10} {'eye pair ms':>12} {'pairs/s':>8} {'panorama ms':>12} {'panoramas/s':>12} "
+          f"{'beacon RTF':>11}")
     for name in names:
         try:
             registry.load("backend", name)
@@ -102,7 +104,7 @@ def main() -> None:
         pair = frame_ms(name, ("eye_L", "eye_R"), args.frames)
         pano = frame_ms(name, ("panorama",), args.frames)
         rtf = beacon_real_time_factor(name, args.seconds)
-        print(f"{name:<10} {pair:>12.2f} {pano:>12.2f} {rtf:>10.1f}x")
+        print(f"{name:<10} {pair:>12.2f} {1e3 / pair:>8.0f} {pano:>12.2f} {1e3 / pano:>12.0f} {rtf:>10.1f}x")
     if "kinematic" in names:
         print(f"kinematic batch of {args.agents}: {batch_rate(('panorama',), args.agents):,.0f} panoramas/s, "
               f"{batch_rate(('eye_L', 'eye_R'), args.agents):,.0f} binocular pairs/s")

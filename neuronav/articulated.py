@@ -226,6 +226,7 @@ class ArticulatedBackend(BackendBase):
         self.notes: list[str] = []
         self._adhesion_scale = np.ones(0)
         self._bounds: tuple[np.ndarray, float] | None = None
+        self._scene_yaw_rad = 0.0
 
     @property
     def timestep(self) -> float:

@@ -10,7 +10,13 @@ leading batch dimension of 1 (J hinge joints, C contact sites, O/W odour/wind si
 
 {sensor_table}
 
-They accept ``joint_targets`` (J,) rad for position-controlled joints (torque = kp (target - q) -
+Each body camera (``BodySpec.cameras``; on the kinematic backend ``PointAgents.cameras``) is a
+sensor too, named after the camera: its image in grey, shape (H, W), float in [0, 1], rendered only
+when read, by the rules of :mod:`neuronav.vision`; ``render(camera)`` gives the colour image
+(H, W, 3) uint8. Every backend can turn the world's objects about the vertical axis:
+``set_scene_yaw(yaw_rad)`` (``scene_yaw_rad`` reads it back).
+
+Articulated backends accept ``joint_targets`` (J,) rad for position-controlled joints (torque = kp (target - q) -
 kd q', clipped to each joint's max torque), and ``adhesion`` (C,) in [0, 1], the fraction of the
 world's ``adhesion_n`` each touching adhesive contact site gets (all 1 after a reset: I2Bot's rule,
 force while touching; a controller can switch pads off in swing); both with or without the batch
@@ -170,6 +176,9 @@ class Backend(Protocol):
     def write(self, commands: dict[str, np.ndarray]) -> None: ...
     def render(self, camera: str) -> np.ndarray: ...
     def apply_force(self, body: int | str, site: str, force_n: np.ndarray) -> None: ...
+    def set_scene_yaw(self, yaw_rad: float) -> None: ...
+    @property
+    def scene_yaw_rad(self) -> float: ...
     @property
     def time(self) -> float: ...
     @property
