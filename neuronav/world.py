@@ -147,9 +147,9 @@ class Appearance:
 
     sky_rgb: tuple[float, float, float] = (0.62, 0.78, 0.95)
     horizon_rgb: tuple[float, float, float] | None = None
-    ground_rgb: tuple[float, float, float] = (0.76, 0.68, 0.52)
+    ground_rgb: tuple[float, float, float] = (0.86, 0.76, 0.56)
     ground_texture: str = "checker"
-    checker_rgb: tuple[float, float, float] = (0.66, 0.58, 0.44)
+    checker_rgb: tuple[float, float, float] = (0.66, 0.57, 0.40)
     checker_m: float = 0.5
 
     def __post_init__(self) -> None:
