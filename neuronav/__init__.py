@@ -5,8 +5,6 @@ run directories and the command line. It imports no physics engine and none of i
 packages (brains, bodies, backends, scenarios): those are found by name through entry points.
 """
 
-from neuronav.circuit import Circuit, Population
-from neuronav.compiled import CompiledCircuit
 from neuronav.errors import (
     CircuitError,
     ConfigError,
@@ -18,6 +16,20 @@ from neuronav.errors import (
 from neuronav.ports import MotorSpec, SensorSpec, bind
 
 __version__ = "0.1.0"
+
+# The circuit classes load on first use (they bring networkx: 0.1 s a run that has no circuit, such as
+# a locomotion run, need not pay).
+_LAZY = {"Circuit": "neuronav.circuit", "Population": "neuronav.circuit", "CompiledCircuit": "neuronav.compiled"}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'neuronav' has no attribute {name!r}")
 
 __all__ = [
     "Circuit", "CompiledCircuit", "Population", "SensorSpec", "MotorSpec", "bind",

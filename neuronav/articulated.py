@@ -255,7 +255,6 @@ class ArticulatedBackend(BackendBase):
         self._sites = {s.name: s for s in body.sites}
         self._segments = {s.name for s in body.segments}
         self._cameras = {c.name: c for c in body.cameras}
-        self._cube_lookups = {c.name: cube_lookup(c) for c in body.cameras if c.projection == "spherical"}
         self._scene_yaw_rad = 0.0
         self.reset()
 
@@ -388,7 +387,7 @@ class ArticulatedBackend(BackendBase):
             raise PortError(f"{self.engine} backend has no camera {camera!r}; available: "
                             f"{', '.join(['follow', *self._cameras])}")
         eye, rotation = self._camera_frame(spec)
-        lookup = self._cube_lookups.get(camera)
+        lookup = cube_lookup(spec) if spec.projection == "spherical" else None  # built once per camera, kept
         views = camera_views(spec, eye, rotation, lookup)
         return compose_image(spec, rotation, self._render_views(views, spec.sees_body), self.world.appearance, lookup)
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import networkx as nx
 import numpy as np
 
 KIND_COLOURS = {"input": "#8dd3c7", "rate": "#80b1d3", "leaky": "#bebada", "integrator": "#fdb462",
@@ -124,6 +123,8 @@ def circuit_layout(circuit) -> dict[str, np.ndarray]:
     """
     graph = circuit.graph
     kind = {n: graph.nodes[n]["population"].kind for n in graph}
+    import networkx as nx  # here: figures without a circuit need not import it
+
     undelayed = nx.DiGraph()
     undelayed.add_nodes_from(sorted(graph))
     undelayed.add_edges_from(sorted((s, t) for s, t, d in graph.edges(data=True) if not d["delay"] and s != t))

@@ -163,12 +163,20 @@ class CubeLookup:
     slot: np.ndarray
 
 
+def cube_face_px(camera: Camera) -> int:
+    """The side of a spherical camera's cube faces (see :func:`cube_lookup`), without building the lookup."""
+    sampled = sampling_camera(camera)
+    step_rad = min(sampled.fov_rad[0] / sampled.width_px, sampled.fov_rad[1] / sampled.height_px)
+    return int(np.clip(np.ceil((np.pi / 2.0) / step_rad), 8, 1024))
+
+
+@lru_cache(maxsize=64)
 def cube_lookup(camera: Camera) -> CubeLookup:
     """How to sample a spherical camera's image from 90° cube faces rendered at its pose.
 
     The face resolution matches the finest angular step of the camera's samples (one face pixel per
     sample at the face centre, at least 8), so a face costs no more pixels than the image needs.
-    The lookup is per sample: shape (H·k, W·k) for ``supersample`` k.
+    The lookup is per sample: shape (H·k, W·k) for ``supersample`` k. Built once per camera and kept.
     """
     camera = sampling_camera(camera)
     directions = pixel_directions(camera)
@@ -178,8 +186,7 @@ def cube_lookup(camera: Camera) -> CubeLookup:
     chosen = np.take_along_axis(local, face[..., None, None], axis=2)[..., 0, :]
     depth = -chosen[..., 2]
     x, y = chosen[..., 0] / depth, chosen[..., 1] / depth  # in [-1, 1] on the face's image plane
-    step_rad = min(camera.fov_rad[0] / camera.width_px, camera.fov_rad[1] / camera.height_px)
-    face_px = int(np.clip(np.ceil((np.pi / 2.0) / step_rad), 8, 1024))
+    face_px = cube_face_px(camera)
     col = np.clip(((x + 1.0) / 2.0 * face_px).astype(int), 0, face_px - 1)
     row = np.clip(((1.0 - y) / 2.0 * face_px).astype(int), 0, face_px - 1)
     faces = np.unique(face)

@@ -41,7 +41,7 @@ import numpy as np  # noqa: E402
 from neuronav.articulated import FOLLOW_SIZE_PX  # noqa: E402
 from neuronav.body import BodySpec, Segment  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
-from neuronav.vision import GROUND_REACH_M, check_camera, cube_lookup  # noqa: E402
+from neuronav.vision import CUBE_FACE_ROTATIONS, GROUND_REACH_M, check_camera, cube_face_px  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
@@ -157,10 +157,9 @@ def _visual(spec: mujoco.MjSpec, body: BodySpec, world: World) -> None:
     widths, heights = [FOLLOW_SIZE_PX[0]], [FOLLOW_SIZE_PX[1]]
     for camera in body.cameras:
         check_camera(camera)
-        if camera.projection == "spherical":
-            lookup = cube_lookup(camera)
-            widths.append(lookup.face_px * len(lookup.faces))
-            heights.append(lookup.face_px)
+        if camera.projection == "spherical":  # room for all six faces side by side
+            widths.append(cube_face_px(camera) * len(CUBE_FACE_ROTATIONS))
+            heights.append(cube_face_px(camera))
         else:
             widths.append(camera.width_px * camera.supersample)
             heights.append(camera.height_px * camera.supersample)

@@ -36,9 +36,8 @@ import math
 from collections.abc import Mapping
 
 import numpy as np
-from scipy.optimize import brentq, minimize_scalar
-from scipy.spatial.transform import Rotation
 
+from bodies.desert_ant import solved
 from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix
 from neuronav.errors import ConfigError
 
@@ -102,8 +101,15 @@ def _quat_z_to(direction) -> tuple[float, float, float, float]:
 
 
 def _quat_from_matrix(matrix: np.ndarray) -> tuple[float, float, float, float]:
-    x, y, z, w = Rotation.from_matrix(matrix).as_quat()
-    return (float(w), float(x), float(y), float(z))
+    """scipy's quaternion of a rotation matrix, (w, x, y, z); kept for the default ant (:mod:`.solved`)."""
+
+    def solve() -> tuple[float, float, float, float]:
+        from scipy.spatial.transform import Rotation
+
+        x, y, z, w = Rotation.from_matrix(matrix).as_quat()
+        return (float(w), float(x), float(y), float(z))
+
+    return tuple(solved.lookup("quats", solved.matrix_key(matrix), solve))
 
 
 def _quat_mul(a, b) -> tuple[float, float, float, float]:
@@ -154,7 +160,17 @@ def _claw_depth(tilt_rad: float, anchor_z: float, lengths, rest) -> float:
 
 
 def _solve_tilt(target_depth: float, anchor_z: float, lengths, rest) -> float:
-    """The coxa tilt putting the claw at ``target_depth``; the deepest reachable tilt if it cannot."""
+    """The coxa tilt putting the claw at ``target_depth``; the deepest reachable tilt if it cannot.
+
+    Solved by scipy; the default ant's tilts are kept (:mod:`bodies.desert_ant.solved`).
+    """
+    return float(solved.lookup("tilts", solved.tilt_key(target_depth, anchor_z, lengths, rest),
+                               lambda: _solve_tilt_scipy(target_depth, anchor_z, lengths, rest)))
+
+
+def _solve_tilt_scipy(target_depth: float, anchor_z: float, lengths, rest) -> float:
+    from scipy.optimize import brentq, minimize_scalar
+
     low = -1.0
     deepest = minimize_scalar(lambda t: -_claw_depth(t, anchor_z, lengths, rest), bounds=(low, 1.5),
                               method="bounded", options={"xatol": 1e-12}).x
