@@ -282,23 +282,6 @@ class KinematicBackend(BackendBase):
         rotations = (frame[:, :, :, None] * quat_to_matrix(spec.quat)[None, None]).sum(axis=2)
         return eyes, rotations
 
-    @property
-    def scene_yaw_rad(self) -> float:
-        """How far the world's objects are turned about the vertical axis (see :class:`World`)."""
-        return self._scene_yaw_rad
-
-    def set_scene_yaw(self, yaw_rad: float) -> None:
-        """Turn all of the world's objects to ``yaw_rad`` (counter-clockwise seen from above) about
-        the world's z axis through the origin; the ground and the agents stay where they are."""
-        self._require()
-        try:
-            value = float(yaw_rad)
-        except (TypeError, ValueError):
-            value = np.nan
-        if isinstance(yaw_rad, bool) or not np.isfinite(value):
-            raise ConfigError(f"kinematic set_scene_yaw: yaw_rad must be a finite number, got {yaw_rad!r}")
-        self._scene_yaw_rad = value
-
     def apply_force(self, body: int, site: str, force: np.ndarray) -> None:
         """Push agent ``body`` with a world-frame ``force`` (2 or 3 numbers; z is ignored) during every
         step of the next :meth:`step` call, as the physics backends do (``site`` is ignored).

@@ -391,20 +391,6 @@ class ArticulatedBackend(BackendBase):
         views = camera_views(spec, eye, rotation, lookup)
         return compose_image(spec, rotation, self._render_views(views, spec.sees_body), self.world.appearance, lookup)
 
-    @property
-    def scene_yaw_rad(self) -> float:
-        """How far the world's objects are turned about the vertical axis (see :class:`World`)."""
-        return self._scene_yaw_rad
-
-    def set_scene_yaw(self, yaw_rad: float) -> None:
-        """Turn all of the world's objects to ``yaw_rad`` (counter-clockwise seen from above) about
-        the world's z axis through the origin; the ground and the body stay where they are."""
-        self._require()
-        if isinstance(yaw_rad, bool) or not np.isfinite(yaw_rad):
-            raise ConfigError(f"{self.engine} set_scene_yaw: yaw_rad must be a finite number, got {yaw_rad!r}")
-        self._scene_yaw_rad = float(yaw_rad)
-        self._turn_scene(self._scene_yaw_rad)
-
     def follow_view(self) -> FollowView:
         """Where the follow camera is now."""
         self._require()

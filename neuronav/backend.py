@@ -235,6 +235,32 @@ class BackendBase:
             checked[name] = array
         return checked
 
+    # -- scene rotation (every backend) ---------------------------------------------------------------
+    _scene_yaw_rad = 0.0
+
+    @property
+    def scene_yaw_rad(self) -> float:
+        """How far the world's objects are turned about the vertical axis (see :class:`World`)."""
+        return self._scene_yaw_rad
+
+    def set_scene_yaw(self, yaw_rad: float) -> None:
+        """Turn all of the world's objects to ``yaw_rad`` (counter-clockwise seen from above) about the
+        world's z axis through the origin; the ground and the bodies stay where they are."""
+        self._require()
+        try:
+            value = float(yaw_rad)
+        except (TypeError, ValueError):
+            value = float("nan")
+        if isinstance(yaw_rad, bool) or not np.isfinite(value):
+            raise ConfigError(f"{self.capabilities.name} set_scene_yaw: yaw_rad must be a finite number (rad), "
+                              f"got {yaw_rad!r}")
+        self._scene_yaw_rad = value
+        self._turn_scene(value)
+
+    def _turn_scene(self, yaw_rad: float) -> None:
+        """Put the world's objects at their declared poses turned by ``yaw_rad`` (an engine's hook; a
+        backend that turns its rays instead, like the kinematic ray caster, has nothing to move)."""
+
     def __enter__(self):
         return self
 

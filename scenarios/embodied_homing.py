@@ -19,8 +19,6 @@ so the three bodies can be compared.
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from bodies.desert_ant import desert_ant
@@ -30,8 +28,8 @@ from neuronav import registry
 from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.scenario import ScenarioResult
-from neuronav.video import VideoRecorder
 from neuronav.world import Ground, PointAgents, World
+from scenarios.trial_loop import run_loop, trials_one_by_one
 
 CYCLE_S = 0.64
 CONTROL_S = 0.008
@@ -88,9 +86,6 @@ class HomingBrain:
         return command
 
 
-# Video: one frame of the follow camera every this many control steps (0.064 s), played in real time
-# (15.6 frames per second), streamed to the file.
-VIDEO_EVERY = 8
 # Physics bounds of the embodied protocol: every trial ends in bounded time.
 MIN_TIMESTEP_S = 1e-4
 MAX_PHYSICS_PER_CONTROL = 80
@@ -128,14 +123,11 @@ def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=N
     """All trials of the embodied protocol, one after another (one body per engine).
 
     With ``video_path``, the first trial is filmed by the follow camera: an MP4 that plays in real
-    time (a frame every ``VIDEO_EVERY`` control steps, :class:`neuronav.video.VideoRecorder`).
+    time (:func:`scenarios.trial_loop.run_loop`).
     """
     check_embodied(config, backend_name)
-    rows, logs = [], []
-    for i in range(trials):
-        row, log = embodied_trial(config, backend_name, seed + i, video_path if i == 0 else None)
-        rows.append(dict(row, trial=i, seed=seed + i))
-        logs.append(log)
+    rows, logs = trials_one_by_one(lambda s, video: embodied_trial(config, backend_name, s, video), trials, seed,
+                                   video_path)
     steps = max(len(log["time_s"]) for log in logs)
     timeseries = {}
     for key in logs[0]:
@@ -164,26 +156,16 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
         gait, physics_dt = make_gait("tripod", body), config.embodied_timestep_s
     brain = HomingBrain(config, seed, config.outbound_s)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
-    started = time.perf_counter()
-    with engine:
-        engine.load(world, [body])
-        video = VideoRecorder(video_path, "follow", every=VIDEO_EVERY) if video_path is not None else None
-        loop = AgentLoop(engine, gait, clocks, steering=brain, hooks=[video] if video else [])
-        loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - heading0)
 
-        def home(lp: AgentLoop) -> bool:
-            if lp.time_s < config.outbound_s:
-                return False
-            position = lp.backend.read(("position",))["position"][0]
-            return bool(np.hypot(*position) <= config.nest_radius_m)
+    def home(lp: AgentLoop) -> bool:
+        if lp.time_s < config.outbound_s:
+            return False
+        position = lp.backend.read(("position",))["position"][0]
+        return bool(np.hypot(*position) <= config.nest_radius_m)
 
-        try:
-            loop.run(config.outbound_s + config.homing_timeout_s, until=home)
-        finally:
-            if video is not None:
-                video.close()
-        final = engine.read(("position",))["position"][0]
-    wall_s = time.perf_counter() - started
+    loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
+                                   duration_s=config.outbound_s + config.homing_timeout_s, until=home,
+                                   video_path=video_path)
     log = {k: list(v) for k, v in brain.log.items()}
     log["time_s"].append(np.array(loop.time_s))
     log["position_m"].append(final)

@@ -19,7 +19,6 @@ to the other side; the binocular ant keeps it ahead.
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,16 +31,15 @@ from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import forest, landmark, vision_appearance
-from neuronav.video import VideoRecorder
 from neuronav.world import Ground, World
 from scenarios.embodied_homing import steering_command
+from scenarios.trial_loop import run_loop, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 EYE_MODES = ("left", "right", "both")
 EYES = {"left": ("eye_L",), "right": ("eye_R",), "both": ("eye_L", "eye_R")}
 # Start headings (clockwise from +y; the landmark is at bearing 0): the paper's ranges.
 START_HEADINGS_RAD = {"left": (0.0, np.pi / 2), "right": (-np.pi / 2, 0.0), "both": (-np.pi / 4, np.pi / 4)}
-VIDEO_EVERY = 8
 
 
 @dataclass
@@ -120,24 +118,13 @@ def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video
     brain = BeaconBrain(config, mode, seed)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
     goal = np.array([0.0, config.landmark_distance_m])
-    started = time.perf_counter()
-    with engine:
-        engine.load(world, [body])
-        video = VideoRecorder(video_path, "follow", every=VIDEO_EVERY) if video_path is not None else None
-        loop = AgentLoop(engine, gait, clocks, steering=brain, hooks=[video] if video else [])
-        loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - heading0)
 
-        def arrived(lp: AgentLoop) -> bool:
-            position = lp.backend.read(("position",))["position"][0]
-            return bool(np.hypot(*(position - goal)) <= config.success_radius_m)
+    def arrived(lp: AgentLoop) -> bool:
+        position = lp.backend.read(("position",))["position"][0]
+        return bool(np.hypot(*(position - goal)) <= config.success_radius_m)
 
-        try:
-            loop.run(config.timeout_s, until=arrived)
-        finally:
-            if video is not None:
-                video.close()
-        final = engine.read(("position",))["position"][0]
-    wall_s = time.perf_counter() - started
+    loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
+                                   duration_s=config.timeout_s, until=arrived, video_path=video_path)
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     log["position_m"] = np.vstack([log["position_m"], final[None]])
     log["end_time_s"] = np.array(loop.time_s)
@@ -208,11 +195,8 @@ class VisualBeacon(Scenario):
 
     def run(self, config: VisualBeaconConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
-        rows, logs = [], []
-        for i in range(trials):
-            row, log = beacon_trial(config, backend, seed + i, video_path if i == 0 else None)
-            rows.append(dict(row, trial=i, seed=seed + i))
-            logs.append(log)
+        rows, logs = trials_one_by_one(lambda s, video: beacon_trial(config, backend, s, video), trials, seed,
+                                       video_path)
         return ScenarioResult(trials=rows, timeseries=pack_logs(logs), aggregates=self.aggregate(rows, config),
                               simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
 

@@ -16,7 +16,6 @@ h₀ − α (headings clockwise from +y): the error is the ant's heading minus t
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -27,10 +26,8 @@ from neuronav.config import field
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import compass_scene
-from neuronav.video import VideoRecorder
+from scenarios.trial_loop import run_loop, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
-
-VIDEO_EVERY = 8
 
 
 @dataclass
@@ -116,21 +113,8 @@ def compass_trial(config: VisualCompassConfig, backend_name: str, seed: int, vid
     rotation = SceneRotation(config, seed)
     brain = CompassBrain(config, rotation)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
-    started = time.perf_counter()
-    with engine:
-        engine.load(compass_scene(), [body])
-        hooks = [rotation]
-        video = VideoRecorder(video_path, "follow", every=VIDEO_EVERY) if video_path is not None else None
-        if video is not None:
-            hooks.append(video)
-        loop = AgentLoop(engine, gait, clocks, steering=brain, hooks=hooks)
-        loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - heading0)
-        try:
-            loop.run(config.duration_s)
-        finally:
-            if video is not None:
-                video.close()
-    wall_s = time.perf_counter() - started
+    loop, _, wall_s = run_loop(engine, compass_scene(), body, gait, clocks, brain, heading_rad=heading0, seed=seed,
+                               duration_s=config.duration_s, hooks=[rotation], video_path=video_path)
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     # The stored direction is the heading at the first look; the world's turn moves it (module doc).
     log["target_rad"] = wrap_rad(log["heading_rad"][0] - log["scene_yaw_rad"])
@@ -189,11 +173,8 @@ class VisualCompass(Scenario):
 
     def run(self, config: VisualCompassConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
-        rows, logs = [], []
-        for i in range(trials):
-            row, log = compass_trial(config, backend, seed + i, video_path if i == 0 else None)
-            rows.append(dict(row, trial=i, seed=seed + i))
-            logs.append(log)
+        rows, logs = trials_one_by_one(lambda s, video: compass_trial(config, backend, s, video), trials, seed,
+                                       video_path)
         cycles = max(len(log["time_s"]) for log in logs)
         timeseries = {}
         for key in logs[0]:
