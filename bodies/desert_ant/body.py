@@ -37,7 +37,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from bodies.desert_ant.solvers import brentq, minimize_bounded, quat_from_matrix
+from bodies.desert_ant import solved
 from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix
 from neuronav.errors import ConfigError
 
@@ -101,8 +101,15 @@ def _quat_z_to(direction) -> tuple[float, float, float, float]:
 
 
 def _quat_from_matrix(matrix: np.ndarray) -> tuple[float, float, float, float]:
-    """scipy's quaternion of a rotation matrix, (w, x, y, z) (:func:`.solvers.quat_from_matrix`)."""
-    return quat_from_matrix(matrix)
+    """scipy's quaternion of a rotation matrix, (w, x, y, z); kept for the default ant (:mod:`.solved`)."""
+
+    def solve() -> tuple[float, float, float, float]:
+        from scipy.spatial.transform import Rotation
+
+        x, y, z, w = Rotation.from_matrix(matrix).as_quat()
+        return (float(w), float(x), float(y), float(z))
+
+    return tuple(solved.lookup("quats", solved.matrix_key(matrix), solve))
 
 
 def _quat_mul(a, b) -> tuple[float, float, float, float]:
@@ -155,11 +162,18 @@ def _claw_depth(tilt_rad: float, anchor_z: float, lengths, rest) -> float:
 def _solve_tilt(target_depth: float, anchor_z: float, lengths, rest) -> float:
     """The coxa tilt putting the claw at ``target_depth``; the deepest reachable tilt if it cannot.
 
-    Solved as scipy's ``minimize_scalar`` (bounded, ``xatol=1e-12``) and ``brentq`` (``xtol=1e-14``)
-    would, to the bit (:mod:`bodies.desert_ant.solvers`).
+    Solved by scipy; the default ant's tilts are kept (:mod:`bodies.desert_ant.solved`).
     """
+    return float(solved.lookup("tilts", solved.tilt_key(target_depth, anchor_z, lengths, rest),
+                               lambda: _solve_tilt_scipy(target_depth, anchor_z, lengths, rest)))
+
+
+def _solve_tilt_scipy(target_depth: float, anchor_z: float, lengths, rest) -> float:
+    from scipy.optimize import brentq, minimize_scalar
+
     low = -1.0
-    deepest = minimize_bounded(lambda t: -_claw_depth(t, anchor_z, lengths, rest), low, 1.5, xatol=1e-12)
+    deepest = minimize_scalar(lambda t: -_claw_depth(t, anchor_z, lengths, rest), bounds=(low, 1.5),
+                              method="bounded", options={"xatol": 1e-12}).x
 
     def f(tilt: float) -> float:
         return _claw_depth(tilt, anchor_z, lengths, rest) - target_depth
