@@ -11,8 +11,8 @@ Before (commit d59cb8e, the 2-core CI machine): the 1 s run took 1.41–1.54 s a
 1.2 s, measured while other jobs shared the machine; on the same machine idle, d59cb8e's
 ``python -m neuronav`` (then the same as the script) took 1.12 s (0.65 s with ``--no-figures``,
 ``neuronav list`` 0.89 s; median of 9). What went: scipy.sparse, scipy.signal/interpolate,
-scipy.optimize and scipy.spatial (the ant's tilts and quaternions are solved by plain-Python ports of
-scipy's routines, equal to the bit: ``bodies/desert_ant/solvers.py``) and networkx (circuits and the
+scipy.optimize and scipy.spatial (the default ant's tilts and quaternions are kept exactly as scipy
+solves them: ``bodies/desert_ant/solved.py``) and networkx (circuits and the
 circuit diagram import it when used) are no longer imported on this path; cube-face lookups are
 built when a camera first renders; the young generation is collected less often and ``gc.freeze``
 runs before exit (``python -m neuronav`` too); PNGs are compressed fast, at the figures' own 100
