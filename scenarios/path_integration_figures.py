@@ -60,13 +60,23 @@ def trajectories_figure(result, config):
     return fig
 
 
+def _record_extent(time, record_every, rows):
+    """An image's extent with each column centred on its record's step, half a record either side.
+
+    A run with a single record still gets a column one record wide (an extent from time[0] to
+    time[-1] would have zero width, and matplotlib's resampling never finishes on it).
+    """
+    half = 0.5 * record_every
+    return (time[0] - half, time[-1] + half, *rows)
+
+
 def cpu4_figure(result, config):
     """Trial 0: CPU4 memory (cells x steps) above the heading (degrees, broken at ±180°)."""
     ts = result.timeseries
     time = np.arange(1, ts["cpu4_memory"].shape[1] + 1) * config.record_every
     fig, axes = new_figure((9, 5), 2, 1, sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     image = axes[0].imshow(ts["cpu4_memory"][0].T, aspect="auto", origin="lower", cmap="viridis",
-                           extent=(time[0], time[-1], -0.5, 15.5))
+                           extent=_record_extent(time, config.record_every, (-0.5, 15.5)))
     axes[0].axvline(config.outbound_steps, color="w", ls="--")
     axes[0].set_ylabel("CPU4 cell")
     axes[0].set_title("trial 0: CPU4 memory (dashed: turn back)")
@@ -81,7 +91,7 @@ def tb1_figure(result, config):
     time = np.arange(1, ts["tb1_rates"].shape[1] + 1) * config.record_every
     fig, ax = new_figure((9, 3.5))
     ax.imshow(ts["tb1_rates"][0].T, aspect="auto", origin="lower", cmap="magma",
-              extent=(time[0], time[-1], -0.5, 7.5))
+              extent=_record_extent(time, config.record_every, (-0.5, 7.5)))
     column = np.mod(ts["heading_rad"][0], 2 * np.pi) / (np.pi / 4)
     column = np.where(column > 7.5, column - 8, column)
     ax.plot(time, column, "c.", ms=1.5, label="heading (column units)")
