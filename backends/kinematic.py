@@ -19,6 +19,12 @@ sits in the agent's frame: forward f = (sin h, cos h, 0), left l = (-cos h, sin 
 position is (x, y, 0) + pos.x f + pos.y l + pos.z up and its frame [f l up] @ R(camera.quat).
 ``set_scene_yaw`` turns the world's objects about the vertical axis through the origin (the ground
 stays), as on the physics backends.
+
+Antennae (:class:`~neuronav.world.PointAntenna`, A per agent): their tips are the odour and wind
+sites, read as ``odour_sites`` / ``wind_sites`` (N, A, 3) m, ``odour`` (N, A, K) and ``wind``
+(N, A, 2) m/s from the world's chemistry (:mod:`neuronav.chemistry`) in one array operation over
+agents and antennae; ``antenna_yaw`` (N, A) rad swings each tip about the vertical through its base
+(positive: left), as an articulated antenna's yaw joint does.
 """
 
 from __future__ import annotations
@@ -32,6 +38,7 @@ import numpy as np
 
 from neuronav.backend import BackendBase, Capabilities, check_seed
 from neuronav.body import Camera, quat_to_matrix
+from neuronav.chemistry import Chemistry
 from neuronav.errors import ConfigError, PortError, SimulationError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.vision import average_samples, check_camera, grey, pixel_directions, sampling_camera
@@ -159,8 +166,19 @@ class KinematicBackend(BackendBase):
         self._casters = {}  # built on a camera's first read
         self._scene_yaw_rad = 0.0
         sensors = tuple(SensorSpec(c.name, (c.height_px, c.width_px), "grey [0, 1]") for c in cameras)
+        motors = ()
+        antennae = bodies[0].antennae
+        if antennae:
+            count = len(antennae)
+            sensors += (SensorSpec("odour_sites", (count, 3), "m"), SensorSpec("wind_sites", (count, 3), "m"),
+                        SensorSpec("odour", (count, world.odour.n_odours), "amount/m^3"),
+                        SensorSpec("wind", (count, 2), "m/s"))
+            motors = (MotorSpec("antenna_yaw", (count,), "rad"),)
+            self._antenna_base = np.array([a.base_m for a in antennae])  # (A, 3), agent frame
+            self._antenna_reach = np.array([a.tip_m for a in antennae]) - self._antenna_base
+        self.chemistry = Chemistry(world.odour)
         self.capabilities = replace(type(self).capabilities, sensors=type(self).capabilities.sensors + sensors,
-                                    can_render=bool(cameras))
+                                    motors=type(self).capabilities.motors + motors, can_render=bool(cameras))
         grid = (self.calibration.turn, self.calibration.stride_rad)
         from scipy.interpolate import RegularGridInterpolator  # lazily: start-up cost
 
@@ -198,7 +216,7 @@ class KinematicBackend(BackendBase):
         self.velocity = np.zeros((n, 2))
         self.heading = np.zeros(n) if heading_rad is None else np.broadcast_to(
             np.asarray(heading_rad, float), (n,)).copy()
-        self._commands = {m.name: np.zeros((n, 1)) for m in self.capabilities.motors}
+        self._commands = {m.name: np.zeros((n,) + m.shape) for m in self.capabilities.motors}
         self._push = None  # (batch, 2) velocity change per step from apply_force, for the next step() call
         self._time_s = 0.0
 
@@ -242,6 +260,12 @@ class KinematicBackend(BackendBase):
                 out[name] = self.position.copy()
             elif name == "speed":
                 out[name] = np.linalg.norm(self.velocity, axis=1)[:, None]
+            elif name in ("odour_sites", "wind_sites"):
+                out[name] = self.antenna_tips()
+            elif name == "odour":
+                out[name] = self._odour_at(self.antenna_tips())
+            elif name == "wind":
+                out[name] = self._wind_at(self.antenna_tips())
             else:
                 out[name] = grey(self.render_batch(name))
         return out
@@ -266,6 +290,20 @@ class KinematicBackend(BackendBase):
             return samples
         # Each agent's k x k samples per pixel averaged, as every backend does (neuronav.vision).
         return np.stack([average_samples(image, spec.supersample) for image in samples])
+
+    def antenna_tips(self) -> np.ndarray:
+        """Every agent's antenna tips in the world, (N, A, 3) m, each turned by its ``antenna_yaw``."""
+        yaw = self._commands["antenna_yaw"]  # (N, A)
+        cos, sin = np.cos(yaw), np.sin(yaw)
+        reach_x, reach_y = self._antenna_reach[None, :, 0], self._antenna_reach[None, :, 1]
+        # The tip in the agent's frame: the base plus the reach turned about the vertical.
+        local_x = self._antenna_base[None, :, 0] + cos * reach_x - sin * reach_y
+        local_y = self._antenna_base[None, :, 1] + sin * reach_x + cos * reach_y
+        local_z = np.broadcast_to(self._antenna_base[None, :, 2] + self._antenna_reach[None, :, 2], yaw.shape)
+        forward = np.stack([np.sin(self.heading), np.cos(self.heading)], axis=1)[:, None, :]  # (N, 1, 2)
+        left = np.stack([-np.cos(self.heading), np.sin(self.heading)], axis=1)[:, None, :]
+        xy = self.position[:, None, :] + local_x[..., None] * forward + local_y[..., None] * left
+        return np.concatenate([xy, local_z[..., None]], axis=2)
 
     def camera_frames(self, camera: str) -> tuple[np.ndarray, np.ndarray]:
         """Where ``camera`` is on every agent: eye positions (N, 3) and frames (N, 3, 3), columns the

@@ -35,6 +35,7 @@ import numpy as np
 
 from neuronav.backend import ARTICULATED_SENSORS, BackendBase, Capabilities, adhesion_port, check_seed, start_pose
 from neuronav.body import BodySpec, Camera, Geom, quat_to_matrix
+from neuronav.chemistry import Chemistry
 from neuronav.errors import ConfigError, PortError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.vision import View, camera_views, compose_image, cube_lookup, grey
@@ -58,11 +59,12 @@ FOLLOW_WALL_DEG = 70.0
 FOLLOW_MIN_EYE_Z_M = 0.05
 
 
-def articulated_capabilities(name: str, body: BodySpec | None = None) -> Capabilities:
-    """The sensors and motors of an articulated backend carrying ``body``.
+def articulated_capabilities(name: str, body: BodySpec | None = None, n_odours: int = 1) -> Capabilities:
+    """The sensors and motors of an articulated backend carrying ``body`` in a world of ``n_odours``.
 
     Sizes J (hinge joints), C (contact sites), O (odour sites) and W (wind sites) come from the
-    body; a sensor with a zero size is left out (a body without odour sites has no ``odour_sites``).
+    body, K from the world's odours; a sensor with a zero size is left out (a body without odour
+    sites has no ``odour_sites`` and no ``odour``).
     Without a body (before ``load``) every sensor is listed with (1,)-sized placeholders.
     """
     if body is None:
@@ -71,7 +73,7 @@ def articulated_capabilities(name: str, body: BodySpec | None = None) -> Capabil
         return Capabilities(name=name, sensors=sensors, motors=(MotorSpec("joint_targets", (1,), "rad"),),
                             batched=False, can_render=True)
     sizes = {"J": len(body.joints), "C": len(body.sites_of_kind("contact")),
-             "O": len(body.sites_of_kind("odour")), "W": len(body.sites_of_kind("wind"))}
+             "O": len(body.sites_of_kind("odour")), "W": len(body.sites_of_kind("wind")), "K": int(n_odours)}
     sensors = []
     for sensor, shape, units, _ in ARTICULATED_SENSORS:
         shape = tuple(sizes[n] if isinstance(n, str) else n for n in shape)
@@ -250,7 +252,8 @@ class ArticulatedBackend(BackendBase):
         body = bodies[0]
         self._load_engine(world, body)
         self.body, self.world = body, world
-        self.capabilities = articulated_capabilities(self.engine, body)
+        self.capabilities = articulated_capabilities(self.engine, body, world.odour.n_odours)
+        self.chemistry = Chemistry(world.odour)
         self._bounds = rest_bounds(body)
         self._sites = {s.name: s for s in body.sites}
         self._segments = {s.name for s in body.segments}
@@ -266,11 +269,13 @@ class ArticulatedBackend(BackendBase):
         ``position_m=(x, y, z)``, ``pitch_rad`` and ``spin_rad`` place it anywhere, e.g. on a wall
         (:func:`neuronav.backend.start_pose`). Standing on the terrain (no z), a body that would
         start inside it (rough ground) is lifted just clear (noted once in :attr:`notes`). Every
-        pad's adhesion is switched fully on. Both engines are deterministic: ``seed`` (None or an
+        pad's adhesion is switched fully on. ``seed`` seeds the world's plume (:attr:`chemistry`);
+        the engines themselves are deterministic: for them ``seed`` (None or an
         int >= 0) changes nothing and is accepted for the protocol.
         """
         self._require()
         self._seed = check_seed(self.engine, seed)
+        self.chemistry.reset(self._seed)
         position, z_given, pose_quat = start_pose(position_m, yaw_rad, pitch_rad, self.engine, spin_rad)
         if not z_given:
             position[2] = float(self.world.ground.height_at(position[0], position[1])) + self.body.spawn_height_m
@@ -326,6 +331,10 @@ class ArticulatedBackend(BackendBase):
             return self._contact_forces()
         if name in ("odour_sites", "wind_sites"):
             return self._site_positions(name.split("_")[0])
+        if name == "odour":
+            return self._odour_at(self._site_positions("odour"))
+        if name == "wind":
+            return self._wind_at(self._site_positions("wind"))
         if name in self._cameras:
             return grey(self._render_camera(name))
         raise PortError(f"{self.engine} backend: sensor {name!r} is not implemented")  # unreachable after _check_read

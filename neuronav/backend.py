@@ -6,14 +6,17 @@ Backends register under the entry-point group ``neuronav.backends`` and are foun
 Articulated (physics) backends simulate one body and share the sensors of
 :data:`ARTICULATED_SENSORS` (the one list of them: a new sensor is declared there, read by
 :class:`neuronav.articulated.ArticulatedBackend` from each engine's reports), each read with a
-leading batch dimension of 1 (J hinge joints, C contact sites, O/W odour/wind sites):
+leading batch dimension of 1 (J hinge joints, C contact sites, O/W odour/wind sites, K the world's
+odour channels):
 
 {sensor_table}
 
 Each body camera (``BodySpec.cameras``; on the kinematic backend ``PointAgents.cameras``) is a
 sensor too, named after the camera: its image in grey, shape (H, W), float in [0, 1], rendered only
 when read, by the rules of :mod:`neuronav.vision`; ``render(camera)`` gives the colour image
-(H, W, 3) uint8. Every backend can turn the world's objects about the vertical axis:
+(H, W, 3) uint8. Odour and wind come from the world's :class:`~neuronav.chemistry.Chemistry`
+(``backend.chemistry``), built at ``load``, seeded at ``reset`` (the plume), advanced to the
+backend's time when read. Every backend can turn the world's objects about the vertical axis:
 ``set_scene_yaw(yaw_rad)`` (``scene_yaw_rad`` reads it back).
 
 Articulated backends accept ``joint_targets`` (J,) rad for position-controlled joints (torque = kp (target - q) -
@@ -36,6 +39,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from neuronav.chemistry import Chemistry
 from neuronav.errors import ConfigError, PortError
 from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.world import World
@@ -56,6 +60,8 @@ ARTICULATED_SENSORS: tuple[tuple[str, tuple, str, str], ...] = (
     ("position", (2,), "m", "body_pos in the xy plane"),
     ("odour_sites", ("O", 3), "m", "odour sites, world frame"),
     ("wind_sites", ("W", 3), "m", "wind sites, world frame"),
+    ("odour", ("O", "K"), "amount/m^3", "concentration of each odour at each odour site (trails: 0-1)"),
+    ("wind", ("W", 2), "m/s", "wind (x, y) at each wind site"),
 )
 
 
@@ -189,9 +195,20 @@ class Backend(Protocol):
 
 
 class BackendBase:
-    """Shared plumbing: name checks for ``read``/``write`` and the context-manager methods."""
+    """Shared plumbing: name checks for ``read``/``write``, odour and wind, the context-manager methods."""
 
     capabilities: Capabilities
+    chemistry: Chemistry | None = None
+
+    def _odour_at(self, points_m: np.ndarray) -> np.ndarray:
+        """Every odour at points (..., 3), the world's chemistry caught up with this backend's time."""
+        self.chemistry.advance_to(self.time)
+        return self.chemistry.odour_at(points_m)
+
+    def _wind_at(self, points_m: np.ndarray) -> np.ndarray:
+        """Wind (x, y) at points (..., 3), the world's chemistry caught up with this backend's time."""
+        self.chemistry.advance_to(self.time)
+        return self.chemistry.wind_at(points_m)
 
     def _check_read(self, names: Iterable[str]) -> list[str]:
         names = list(names)

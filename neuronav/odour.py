@@ -53,6 +53,13 @@ def _floor_xy(points_m) -> np.ndarray:
     return points[..., :2]
 
 
+def odour_index(label: str, value) -> int:
+    """An odour index (an integer >= 0), or a ConfigError naming ``label``."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise ConfigError(f"{label}: expected an integer index >= 0, got {value!r}")
+    return int(value)
+
+
 def _check_range(name: str, value) -> tuple[float, float]:
     pair = tuple(float(v) for v in np.asarray(value, float).reshape(-1))
     if len(pair) != 2 or not np.isfinite(pair).all() or not pair[0] < pair[1]:
@@ -120,12 +127,15 @@ class PolylineTrail:
         Width of the raised-cosine edge, metres, in [0, width_m] (0: a hard edge).
     closed : bool
         If true, the last vertex joins the first (a loop).
+    odour : int
+        Which odour the trail carries (index into a sensor's odour axis, >= 0).
     """
 
     vertices_m: np.ndarray
     width_m: float = TRAIL_WIDTHS_M["normal"]
     edge_m: float = DEFAULT_EDGE_M
     closed: bool = False
+    odour: int = 0
     _starts: np.ndarray = field(init=False, repr=False)
     _deltas: np.ndarray = field(init=False, repr=False)
     _inv_len2: np.ndarray = field(init=False, repr=False)
@@ -152,6 +162,7 @@ class PolylineTrail:
         object.__setattr__(self, "width_m", width)
         object.__setattr__(self, "edge_m", edge)
         object.__setattr__(self, "closed", bool(self.closed))
+        object.__setattr__(self, "odour", odour_index("trail odour", self.odour))
         object.__setattr__(self, "_starts", starts)
         object.__setattr__(self, "_deltas", deltas)
         object.__setattr__(self, "_inv_len2", 1.0 / length2)
@@ -203,11 +214,14 @@ class ImageTrail:
         rectangle's largest y, column 0 at its smallest x.
     x_range_m, y_range_m : (float, float)
         The floor rectangle the image covers, metres.
+    odour : int
+        Which odour the trail carries (index into a sensor's odour axis, >= 0).
     """
 
     image: np.ndarray
     x_range_m: tuple[float, float]
     y_range_m: tuple[float, float]
+    odour: int = 0
 
     def __post_init__(self) -> None:
         raw = np.asarray(self.image)
@@ -225,6 +239,7 @@ class ImageTrail:
         object.__setattr__(self, "image", image)
         object.__setattr__(self, "x_range_m", _check_range("trail image x_range_m", self.x_range_m))
         object.__setattr__(self, "y_range_m", _check_range("trail image y_range_m", self.y_range_m))
+        object.__setattr__(self, "odour", odour_index("trail image odour", self.odour))
 
     def concentration_at(self, points_m) -> np.ndarray:
         """Concentration at points (..., 2 or 3), bilinear between pixel centres, 0 off the image."""

@@ -13,6 +13,7 @@ from functools import cached_property
 
 import numpy as np
 
+from neuronav.chemistry import OdourScene
 from neuronav.errors import ConfigError
 
 GROUND_KINDS = ("flat", "uneven", "wall")
@@ -164,7 +165,10 @@ class Appearance:
 
 @dataclass(frozen=True)
 class World:
-    """What every backend builds: a ground, static objects, their look, and adhesion for climbing.
+    """What every backend builds: a ground, static objects, their look, its odours, and adhesion.
+
+    ``odour``: trails on the floor and a live plume with its wind (:class:`~neuronav.chemistry.OdourScene`;
+    default none), computed engine-free and read by every backend at its odour and wind sites.
 
     ``adhesion_n``: while an adhesive contact site's geom (a claw: ``Site.adhesive``) touches a
     surface, a force of this size presses it into that surface (0: off). Backends apply it every
@@ -179,12 +183,39 @@ class World:
     objects: tuple[WorldObject, ...] = ()
     adhesion_n: float = 0.0
     appearance: Appearance = field(default_factory=Appearance)
+    odour: OdourScene = field(default_factory=OdourScene)
 
     def __post_init__(self) -> None:
         if not self.adhesion_n >= 0:
             raise ConfigError(f"world adhesion_n must be >= 0, got {self.adhesion_n}")
+        if not isinstance(self.odour, OdourScene):
+            raise ConfigError(f"world odour must be a neuronav.chemistry.OdourScene, got {type(self.odour).__name__}")
         if not isinstance(self.appearance, Appearance):
             raise ConfigError(f"world appearance must be an Appearance, got {type(self.appearance).__name__}")
+
+
+@dataclass(frozen=True)
+class PointAntenna:
+    """An antenna of a point agent: a tip that smells and feels the wind, swinging about its base.
+
+    Both points are in the agent's frame (x forward, y left, z up, origin on the ground under the
+    agent), the tip at rest. The ``antenna_yaw`` command turns the tip about the vertical axis
+    through the base by that many radians from rest (positive: to the left), as the yaw joint of an
+    articulated antenna does.
+    """
+
+    name: str
+    base_m: tuple[float, float, float]
+    tip_m: tuple[float, float, float]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise ConfigError(f"PointAntenna name must be a non-empty string, got {self.name!r}")
+        for label in ("base_m", "tip_m"):
+            values = np.asarray(getattr(self, label), dtype=float) if np.ndim(getattr(self, label)) == 1 else None
+            if values is None or values.shape != (3,) or not np.isfinite(values).all():
+                raise ConfigError(f"antenna {self.name!r}: {label} must be 3 finite numbers, got {getattr(self, label)!r}")
+            object.__setattr__(self, label, tuple(float(v) for v in values))
 
 
 @dataclass(frozen=True)
@@ -208,6 +239,8 @@ class PointAgents:
         Cameras carried by every agent, placed in the agent's frame (x forward, y left, z up,
         origin on the ground under the agent; ``Camera.segment`` is ignored). The kinematic backend
         renders them by ray casting (:mod:`neuronav.raycast`).
+    antennae : tuple of PointAntenna
+        Antennae carried by every agent: their tips are the agents' odour and wind sites.
     """
 
     count: int = 1
@@ -215,6 +248,7 @@ class PointAgents:
     drag: float = 0.15
     mass_kg: float = 1.0
     cameras: tuple = ()
+    antennae: tuple = ()
 
     def __post_init__(self) -> None:
         if not isinstance(self.count, int) or self.count < 1:
@@ -225,3 +259,10 @@ class PointAgents:
             raise ConfigError(f"PointAgents drag must be in [0, 1), got {self.drag}")
         if not self.mass_kg > 0:
             raise ConfigError(f"PointAgents mass_kg must be > 0, got {self.mass_kg}")
+        antennae = tuple(self.antennae)
+        if not all(isinstance(a, PointAntenna) for a in antennae):
+            raise ConfigError("PointAgents antennae must be neuronav.world.PointAntenna instances")
+        names = [a.name for a in antennae]
+        if len(set(names)) != len(names):
+            raise ConfigError(f"PointAgents antennae: a name is used twice in {names}")
+        object.__setattr__(self, "antennae", antennae)

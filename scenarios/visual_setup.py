@@ -1,9 +1,10 @@
-"""What the visual scenarios share: the ant's cameras on a point agent, the bodies per backend, and
-the loop that films a trial.
+"""What the embodied sensory scenarios share: the ant's cameras and antennae on a point agent, and
+the bodies per backend.
 
 The kinematic backend's unicycle carries the ant's own cameras, placed where they sit on the ant
-standing at rest (:func:`point_agent_cameras`), so the same eyes look at the same world on all three
-backends.
+standing at rest (:func:`point_agent_cameras`), and its antennae, tips at the ant's odour sites
+(:func:`bodies.antennae.point_antennae`), so the same eyes look at the same world and the same
+antennae smell the same odour on all three backends.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from bodies.antennae import point_antennae
 from bodies.desert_ant import desert_ant
 from bodies.gaits import make_gait, segment_pose
 from neuronav import registry
@@ -50,12 +52,13 @@ def point_agent_cameras(body: BodySpec) -> tuple[Camera, ...]:
     return tuple(cameras)
 
 
-def make_engine(backend_name: str, timestep_s: float):
-    """(engine, body, gait, physics step) of one trial: the ant on a physics backend, or the kinematic
-    unicycle carrying the ant's cameras (rendered only when read)."""
+def make_engine(backend_name: str, timestep_s: float, **ant_options):
+    """(engine, body, gait, physics step) of one trial: the ant (``desert_ant(**ant_options)``, e.g.
+    ``antenna_length_m``) on a physics backend, or the kinematic unicycle carrying the ant's cameras
+    (rendered only when read) and antennae."""
     engine_class = registry.load("backend", backend_name)
-    ant = desert_ant()
+    ant = desert_ant(**ant_options)
     if backend_name == "kinematic":
-        body = PointAgents(count=1, mode="unicycle", cameras=point_agent_cameras(ant))
+        body = PointAgents(count=1, mode="unicycle", cameras=point_agent_cameras(ant), antennae=point_antennae(ant))
         return engine_class(timestep_s=CONTROL_S), body, None, CONTROL_S
     return engine_class(timestep_s=timestep_s), ant, make_gait("tripod", ant), timestep_s

@@ -76,7 +76,7 @@ def test_load_step_read_shapes_and_capabilities():
     backend = MujocoBackend()
     assert isinstance(backend, Backend)
     assert backend.capabilities.name == "mujoco" and not backend.capabilities.batched
-    assert all(s.shape in ((1,), (1, 3)) or len(s.shape) <= 1 for s in backend.capabilities.sensors)
+    assert all(s.shape in ((1,), (1, 1), (1, 2), (1, 3)) or len(s.shape) <= 1 for s in backend.capabilities.sensors)
     with pytest.raises(SimulationError):
         backend.step()
     backend.load(World(), [small_body()])
@@ -84,7 +84,7 @@ def test_load_step_read_shapes_and_capabilities():
     assert sensors == {"joint_pos": (4,), "joint_vel": (4,), "joint_torque": (4,), "contact_force": (2, 3),
                        "body_pos": (3,), "body_quat": (4,), "body_linvel": (3,), "body_angvel": (3,),
                        "heading": (1,), "velocity": (2,), "position": (2,), "odour_sites": (2, 3),
-                       "wind_sites": (1, 3), "eye": (16, 64), "pano": (24, 48)}
+                       "wind_sites": (1, 3), "odour": (2, 1), "wind": (1, 2), "eye": (16, 64), "pano": (24, 48)}
     assert [(m.name, m.shape) for m in backend.capabilities.motors] == [("joint_targets", (4,)), ("adhesion", (2,))]
     backend.step(10)
     assert backend.time == pytest.approx(10 * 0.002)
