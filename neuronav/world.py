@@ -214,7 +214,8 @@ class PointAntenna:
         for label in ("base_m", "tip_m"):
             values = np.asarray(getattr(self, label), dtype=float) if np.ndim(getattr(self, label)) == 1 else None
             if values is None or values.shape != (3,) or not np.isfinite(values).all():
-                raise ConfigError(f"antenna {self.name!r}: {label} must be 3 finite numbers, got {getattr(self, label)!r}")
+                raise ConfigError(f"antenna {self.name!r}: {label} must be 3 finite numbers, "
+                                  f"got {getattr(self, label)!r}")
             object.__setattr__(self, label, tuple(float(v) for v in values))
 
 
