@@ -206,9 +206,9 @@ class KinematicBackend(BackendBase):
 
         ``yaw_rad`` (counter-clockwise from +x, as the physics backends take it) may be given
         instead of the heading: heading = π/2 − yaw. ``seed`` (None or an int >= 0, as on every
-        backend) changes nothing here: the point agents have no random state.
+        backend) seeds the world's plume (:attr:`chemistry`); the point agents have no random state.
         """
-        check_seed("kinematic", seed)
+        self.chemistry.reset(check_seed("kinematic", seed))
         n = self.batch
         if yaw_rad is not None:
             heading_rad = np.pi / 2 - np.asarray(yaw_rad, float)
