@@ -7,10 +7,20 @@ import pytest
 
 from neuronav import registry
 from neuronav.backend import Backend, Capabilities
-from neuronav.body import BodySpec, Geom, Joint, Segment
+from neuronav.body import BodySpec, Geom, Joint, Segment, Site
+from neuronav.chemistry import OdourScene
 from neuronav.config import apply_overrides
+from neuronav.odour import straight_trail
+from neuronav.plume import PlumeConfig
 from neuronav.runner import load_scenario, run_trials
-from neuronav.world import PointAgents, World
+from neuronav.world import PointAgents, PointAntenna, World
+
+# Every backend's world smells: a trail under the bodies and a live plume upwind of them, so the odour
+# and wind sensors are read (and must repeat under the seed) like the rest.
+ODOUR_WORLD = World(odour=OdourScene(trails=(straight_trail((-2.0, 0.0), (2.0, 0.0), "wide"),),
+                                     plume=PlumeConfig(arena_x_m=(-1.0, 7.0)), warmup_s=1.0))
+ANTENNAE = (PointAntenna("L", (0.1, 0.05, 0.3), (0.4, 0.2, 0.2)),
+            PointAntenna("R", (0.1, -0.05, 0.3), (0.4, -0.2, 0.2)))
 
 
 def random_inputs(sensors, batch, steps, seed):
@@ -41,7 +51,8 @@ def test_brain_builds_steps_stays_finite_and_repeats(name):
 
 
 def small_body() -> BodySpec:
-    """A two-legged box: enough to exercise an articulated backend in a fraction of a second."""
+    """A two-legged box with an odour and a wind site: enough to exercise an articulated backend in a
+    fraction of a second."""
     leg = dict(mass_kg=0.1, geoms=(Geom("capsule", (0.02, 0.1), pos_m=(0.0, 0.0, -0.1)),))
     joint = dict(kind="hinge", axis=(0.0, 1.0, 0.0), range_rad=(-1.0, 1.0), kp=50.0, kd=1.0, max_torque_nm=20.0)
     return BodySpec(
@@ -51,6 +62,7 @@ def small_body() -> BodySpec:
             Segment("left", "trunk", joint=Joint("left_hip", **joint), pos_m=(0.0, 0.12, -0.05), **leg),
             Segment("right", "trunk", joint=Joint("right_hip", **joint), pos_m=(0.0, -0.12, -0.05), **leg),
         ),
+        sites=(Site("nose", "trunk", (0.2, 0.0, 0.0), "odour"), Site("vane", "trunk", (0.0, 0.0, 0.05), "wind")),
         spawn_height_m=0.3,
     )
 
@@ -60,7 +72,7 @@ def drive(backend_class, body, seed, steps, batch):
     rng = np.random.default_rng(seed)
     with backend_class() as backend:
         assert isinstance(backend, Backend)
-        backend.load(World(), [body])
+        backend.load(ODOUR_WORLD, [body])
         backend.reset(seed)
         readings = []
         for _ in range(steps):
@@ -86,10 +98,13 @@ def test_backend_builds_steps_stays_finite_and_repeats(name):
         pytest.skip(reason)
     cls = registry.load("backend", name)
     if isinstance(getattr(cls, "capabilities", None), Capabilities) and cls.capabilities.batched:
-        body, batch, steps = PointAgents(count=4), 4, 50
+        body, batch, steps = PointAgents(count=4, antennae=ANTENNAE), 4, 50
     else:
         body, batch, steps = small_body(), 1, 250
     first = drive(cls, body, 3, steps, batch)
+    with cls() as backend:
+        backend.load(ODOUR_WORLD, [body])
+        assert {"odour", "wind"} <= {s.name for s in backend.capabilities.sensors}
     assert np.all(np.isfinite(first))
     np.testing.assert_array_equal(first, drive(cls, body, 3, steps, batch))
 
