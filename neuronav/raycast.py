@@ -9,7 +9,9 @@ shows, by the rules of :mod:`neuronav.vision`:
   about its position; cone: upright, base of that radius at position z - half height, apex at
   z + half height, as the MuJoCo and PyBullet backends build it, here a true cone rather than their
   32-sided pyramid; sphere) in its flat colour ``rgba[:3]``, or the ground plane z = 0 (infinite,
-  plain or checker as the World's :class:`~neuronav.world.Appearance` says);
+  plain or checker as the World's :class:`~neuronav.world.Appearance` says, and where the World has
+  odour trails, inside their floor image's rectangle, that image's texel under the hit
+  (:meth:`neuronav.trail_floor.TrailFloor.rgb_at`: what MuJoCo and PyBullet draw there);
 - where nothing is hit, the sky (:func:`neuronav.vision.sky_rgb`).
 
 The objects can be turned about the world's z axis through the origin (the scene yaw; the ground
@@ -28,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from neuronav.errors import ConfigError
+from neuronav.trail_floor import trail_floor
 from neuronav.vision import FAR_M, NEAR_M, sky_rgb, to_uint8
 from neuronav.world import World, WorldObject
 
@@ -97,6 +100,7 @@ class RayCaster:
         fixed = [look.sky_rgb, look.ground_rgb, look.checker_rgb]
         self._palette = to_uint8(np.array(fixed + [o.rgba[:3] for o in self.objects], float))
         self._sky_gradient = look.horizon_rgb is not None  # else the palette's sky slot is the sky
+        self._trails = trail_floor(world)  # the odour trails' floor image, None without trails
 
     def _tiles(self, tile_px: int) -> None:
         """Group pixels into tiles (padded by repeating a member) with a bounding cone each."""
@@ -148,6 +152,8 @@ class RayCaster:
         if self.objects:
             self._objects(eyes, rotations, world, yaw, best_t, slot)
         image = self._palette[slot]
+        if self._trails is not None:
+            self._paint_trails(eyes, world, best_t, slot, image)
         sky = slot == _SKY
         # The gradient sky by each pixel's elevation, by the one formula of vision.sky_rgb.
         if self._sky_gradient and sky.any():
@@ -170,6 +176,18 @@ class RayCaster:
             size = self.appearance.checker_m
             odd = (np.floor(x / size) + np.floor(y / size)) % 2 == 1
             slot[hit] = np.where(odd, _CHECKER, _GROUND)
+
+    def _paint_trails(self, eyes: np.ndarray, world: list, best_t: np.ndarray, slot: np.ndarray,
+                      image: np.ndarray) -> None:
+        """Ground pixels whose hit lies on the trails' floor image take its texel's colour."""
+        agent, pixel = np.nonzero((slot == _GROUND) | (slot == _CHECKER))
+        if agent.size == 0:
+            return
+        t = best_t[agent, pixel]
+        points = np.stack([eyes[agent, 0] + t * world[0][agent, pixel], eyes[agent, 1] + t * world[1][agent, pixel]],
+                          axis=-1)
+        rgb, inside = self._trails.rgb_at(points)
+        image[agent[inside], pixel[inside]] = rgb[inside]
 
     def _objects(self, eyes: np.ndarray, rotations: np.ndarray, world: list, yaw: float, best_t: np.ndarray,
                  slot: np.ndarray) -> None:

@@ -25,6 +25,10 @@ What the model contains
   :data:`neuronav.vision.GROUND_REACH_M` (a plane collides everywhere; its size only bounds the
   drawing); around a heightfield a visual-only plane (group ``HORIZON_GROUP``) carries the ground on.
   The objects are geoms of one mocap body at the origin (``SCENE_BODY``), turned for the scene yaw.
+- Odour trails (:mod:`neuronav.trail_floor`): on a flat ground, a visual-only plane (``TRAIL_GEOM``,
+  group ``HORIZON_GROUP``: drawn, never touched nor hit by rays) over the floor image's rectangle,
+  ``TRAIL_LIFT_M`` above z = 0, its texture the image (one copy over the plane, row 0 at its +y
+  edge, column 0 at its -x edge; checked by a test). Without trails nothing is added.
 """
 
 from __future__ import annotations
@@ -41,6 +45,7 @@ import numpy as np  # noqa: E402
 from neuronav.articulated import FOLLOW_SIZE_PX  # noqa: E402
 from neuronav.body import BodySpec, Segment  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
+from neuronav.trail_floor import TrailFloor, trail_floor  # noqa: E402
 from neuronav.vision import CUBE_FACE_ROTATIONS, GROUND_REACH_M, check_camera, cube_face_px  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
@@ -62,6 +67,10 @@ HORIZON_DROP_M = 1e-3  # that plane sits just under z = 0, so the heightfield dr
 # flat shading needs no finer grid, and a fine grid over GROUND_REACH_M costs milliseconds per render.
 PLANE_QUADS = 4
 GROUND_TEXEL_PX = 256  # the checker texture (2x2 squares): sharp in the lit, mipmapped follow view too
+TRAIL_GEOM = "world/trails"  # the plane that shows the odour trails (neuronav.trail_floor)
+# The trail plane's height above the ground: over the ground plane in the depth buffer (a body camera
+# 5 cm up resolves 1e-5 m at 20 m), under anything standing on the floor by no more than this.
+TRAIL_LIFT_M = 1e-3
 
 @dataclass(frozen=True)
 class ModelNames:
@@ -109,8 +118,11 @@ def build_spec(world: World, body: BodySpec, timestep_s: float = 0.002) -> tuple
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.compiler.autolimits = True
     _options(spec, timestep_s, sticky=world.adhesion_n > 0)
+    floor = trail_floor(world)
     _visual(spec, body, world)
     _world(spec, world)
+    if floor is not None:
+        _trails(spec, floor)
     names = _body(spec, body)
     return spec, names
 
@@ -247,6 +259,21 @@ def _world(spec: mujoco.MjSpec, world: World) -> None:
             vertices = np.vstack([[0.0, 0.0, half_height], ring])
             spec.add_mesh(name=f"{name}/mesh", uservert=vertices.ravel().tolist())
             scene.add_geom(type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"{name}/mesh", **common)
+
+
+def _trails(spec: mujoco.MjSpec, floor: TrailFloor) -> None:
+    """The floor image on a visual-only plane over its rectangle (one texture copy, not per metre)."""
+    height, width = floor.shape_px
+    # MuJoCo puts a 2D texture's row 0 at a plane's +y edge and column 0 at its -x edge: the image's own layout.
+    texture = spec.add_texture(name="trails", type=mujoco.mjtTexture.mjTEXTURE_2D, width=width, height=height,
+                               nchannel=3)
+    texture.data = np.ascontiguousarray(floor.image).tobytes()
+    material = spec.add_material(name="trails", texrepeat=(1.0, 1.0), texuniform=False)
+    material.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "trails"
+    half_x, half_y = floor.half_size_m
+    spec.worldbody.add_geom(name=TRAIL_GEOM, type=mujoco.mjtGeom.mjGEOM_PLANE,
+                            pos=(*floor.centre_m, TRAIL_LIFT_M), size=(half_x, half_y, max(half_x, half_y)),
+                            material="trails", contype=0, conaffinity=0, group=HORIZON_GROUP)
 
 
 def _plane_half_m(reach_m: float, appearance) -> float:

@@ -14,7 +14,8 @@ What TinyRenderer does and how it is made to follow :mod:`neuronav.vision`:
   that reaches hundreds of metres, so body cameras do not use a texture: the ground's pixels
   (its bodies in the segmentation mask) are coloured here from where their ray meets the ground
   (the plane z = 0 for a flat ground, the depth buffer's distance on a heightfield):
-  ``ground_rgb`` or the checker of ``World.appearance``.
+  ``ground_rgb`` or the checker of ``World.appearance``, and on the odour trails' floor image
+  (:mod:`neuronav.trail_floor`) that image's texel, as the kinematic ray caster paints it.
 - **Sky.** The depth buffer is exactly 1 (the far plane) where nothing was drawn: that is the sky
   mask, which the caller paints (:func:`neuronav.vision.compose_image`). With the near plane at
   5 mm, ground 500 m away still has a depth below 1 (1 - 5e-6; float32 resolves 6e-8 there).
@@ -30,6 +31,7 @@ import numpy as np
 from backends.pybullet.engine import pb
 from neuronav.articulated import FollowView
 from neuronav.body import Camera
+from neuronav.trail_floor import trail_floor
 from neuronav.vision import FAR_M, NEAR_M, View, pixel_directions, sky_rgb, to_uint8
 from neuronav.world import World
 
@@ -88,11 +90,12 @@ def render_flat(cid: int, view: View, world: World, ground_ids: list[int],
 
     ``ground_ids``: the ground's bodies, the flat floor (top at ``floor_z_m``) last.
     """
-    checker = world.appearance.ground_texture == "checker"
+    # Ground pixels are painted here on a checker ground, or where the world draws odour trails.
+    painted = world.appearance.ground_texture == "checker" or trail_floor(world) is not None
     rgb, depth, seg = _render(cid, view.eye_m, view.rotation, view.width_px, view.height_px, view.fov_rad,
-                              FLAT_LIGHT, segmentation=checker)
+                              FLAT_LIGHT, segmentation=painted)
     sky = depth >= 1.0
-    if checker:
+    if painted:
         # The last ground body is the flat floor (its top at floor_z_m), any other a heightfield.
         floor, field = seg == ground_ids[-1], np.isin(seg, ground_ids[:-1])
         for mask, plane_z_m in ((floor & ~sky, floor_z_m), (field & ~sky, None)):
@@ -103,8 +106,9 @@ def render_flat(cid: int, view: View, world: World, ground_ids: list[int],
 
 def ground_colour(view: View, world: World, on_ground: np.ndarray, depth: np.ndarray,
                   floor_z_m: float | None) -> np.ndarray:
-    """The checker's colour (uint8 (n, 3)) where the rays of the ``on_ground`` pixels meet the ground:
-    the plane z = ``floor_z_m``, or (None: a heightfield) as far as the depth buffer says."""
+    """The ground's colour (uint8 (n, 3)) where the rays of the ``on_ground`` pixels meet it (the plane
+    z = ``floor_z_m``, or, None: a heightfield, as far as the depth buffer says): the plain ground or
+    its checker, and the odour trails' floor image where it lies."""
     local = _directions(view.width_px, view.height_px, *view.fov_rad)[on_ground]
     rays = local @ np.asarray(view.rotation, float).T
     eye = np.asarray(view.eye_m, float)
@@ -115,9 +119,17 @@ def ground_colour(view: View, world: World, on_ground: np.ndarray, depth: np.nda
         reach = linear_depth_m(depth[on_ground]) / np.maximum(-local[:, 2], 1e-12)
     points = eye[:2] + reach[:, None] * rays[:, :2]
     appearance = world.appearance
-    squares = np.floor(points / appearance.checker_m).sum(axis=1)
-    odd = (np.mod(squares, 2.0) == 1.0)[:, None]
-    return to_uint8(np.where(odd, appearance.checker_rgb, appearance.ground_rgb))
+    if appearance.ground_texture == "checker":
+        squares = np.floor(points / appearance.checker_m).sum(axis=1)
+        odd = (np.mod(squares, 2.0) == 1.0)[:, None]
+        colour = to_uint8(np.where(odd, appearance.checker_rgb, appearance.ground_rgb))
+    else:
+        colour = np.broadcast_to(to_uint8(appearance.ground_rgb), (len(points), 3)).copy()
+    trails = trail_floor(world)
+    if trails is not None:
+        trail_rgb, inside = trails.rgb_at(points)
+        colour[inside] = trail_rgb[inside]
+    return colour
 
 
 def render_follow(cid: int, view: FollowView, world: World) -> np.ndarray:

@@ -4,10 +4,17 @@ Two builds of one :class:`World`:
 
 - :func:`build_ground` and :func:`build_object` in the physics client: collision shapes, with a look
   for the follow camera's videos (the floor over ``Ground.size_m`` in the World's appearance: plain,
-  or a checker texture aligned with the world axes);
+  or a checker texture of squares of ``checker_m`` aligned with the world axes, with the parity of
+  every backend: ``ground_rgb`` where ``floor(x / checker_m) + floor(y / checker_m)`` is even);
 - :func:`build_vision_world` in a render-only client that holds no body: looks only, the ground
   reaching :data:`neuronav.vision.GROUND_REACH_M` from the origin. Body cameras colour the ground
   themselves (:mod:`backends.pybullet.camera`), so its look there does not matter.
+
+Odour trails (:mod:`neuronav.trail_floor`, flat grounds only): in the physics client, a visual-only
+mesh (no collision shape: nothing touches it, no ray hits it) over the floor image's rectangle,
+``TRAIL_LIFT_M`` above z = 0, textured with the image (written once per image into ``folder``
+as a PNG); in the render-only client nothing: body cameras colour the floor's pixels from the
+image themselves (:mod:`backends.pybullet.camera`), as they colour the checker.
 
 TinyRenderer truncates ``255 * rgba`` to an integer; :func:`exact_rgba` asks for the middle of the
 colour's 8-bit step, so that a surface shows ``round(255 * rgba)``, as on the other engines.
@@ -24,6 +31,7 @@ import numpy as np
 
 from backends.pybullet.engine import pb
 from neuronav.errors import ConfigError
+from neuronav.trail_floor import TrailFloor, ground_rgb_at, trail_floor
 from neuronav.vision import GROUND_REACH_M, to_uint8
 from neuronav.world import World, WorldObject
 
@@ -34,6 +42,10 @@ CONE_SIDES = 32
 MAX_FLOOR_SQUARES = 1024
 # Below the heightfield (uneven ground), the flat floor's look hides this far under z = 0.
 UNDER_FIELD_M = 2e-3
+# The trails' floor image lies this far above z = 0 (over the floor in the follow view's depth buffer).
+TRAIL_LIFT_M = 2e-3
+# A textured rectangle (the checker floor, the trails) is drawn in quads of at most this side.
+TEXTURED_CELL_M = 10.0
 
 
 def exact_rgba(rgba) -> list[float]:
@@ -57,23 +69,69 @@ def build_ground(cid: int, world: World, folder: str) -> list[int]:
         top = -UNDER_FIELD_M  # the plane's look hides under the field
     checker = appearance.ground_texture == "checker"
     squares = 2 * math.ceil(ground.size_m / 2.0 / appearance.checker_m)
-    half = ground.size_m / 2.0
     if checker and squares <= MAX_FLOOR_SQUARES:
         half = squares * appearance.checker_m / 2.0  # whole squares, a corner at the origin
-    visual = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.005],
-                                  visualFramePosition=[0.0, 0.0, top - 0.005],
-                                  rgbaColor=[1.0, 1.0, 1.0, 1.0] if checker else exact_rgba(appearance.ground_rgb),
-                                  physicsClientId=cid)
-    floor = pb.createMultiBody(0.0, plane, visual, [0.0, 0.0, 0.0], physicsClientId=cid)
-    if checker and squares <= MAX_FLOOR_SQUARES:
-        pb.changeVisualShape(floor, -1, textureUniqueId=checker_texture(cid, world, squares, folder),
-                             physicsClientId=cid)
+        look = _rectangle_look(cid, (-half, half), (-half, half), top)
+        floor = pb.createMultiBody(0.0, plane, look, [0.0, 0.0, 0.0], physicsClientId=cid)
+        pb.changeVisualShape(floor, -1, textureUniqueId=_texture(cid, checker_image(appearance, squares), "checker",
+                                                                 folder), physicsClientId=cid)
+    else:
+        half = ground.size_m / 2.0
+        look = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.005],
+                                    visualFramePosition=[0.0, 0.0, top - 0.005],
+                                    rgbaColor=exact_rgba(appearance.ground_rgb), physicsClientId=cid)
+        floor = pb.createMultiBody(0.0, plane, look, [0.0, 0.0, 0.0], physicsClientId=cid)
     set_friction(cid, world, floor)
     bodies.append(floor)
+    trails = trail_floor(world)
+    if trails is not None:
+        _trail_floor_body(cid, trails, folder)
     wall = _wall(cid, world, with_collision=True)
     if wall is not None:
         set_friction(cid, world, wall)
     return bodies
+
+
+def _trail_floor_body(cid: int, floor: TrailFloor, folder: str) -> int:
+    """The trails' floor image over its rectangle, ``TRAIL_LIFT_M`` up, visual only; its body."""
+    look = _rectangle_look(cid, floor.x_range_m, floor.y_range_m, TRAIL_LIFT_M)
+    body = pb.createMultiBody(0.0, -1, look, [0.0, 0.0, 0.0], physicsClientId=cid)
+    pb.changeVisualShape(body, -1, textureUniqueId=_texture(cid, floor.image, "trails", folder), physicsClientId=cid)
+    return body
+
+
+def _rectangle_look(cid: int, x_range_m, y_range_m, z_m: float) -> int:
+    """A horizontal rectangle at height ``z_m`` that shows one copy of its texture, as a visual shape.
+
+    A grid of quads at most ``TEXTURED_CELL_M`` a side (TinyRenderer's texture coordinates stay
+    exact on such triangles: measured within one texel in an oblique view; a box's faces would
+    each show a quarter of the texture), with texture coordinates (u, v) = ((x - x0) / (x1 - x0),
+    (y - y0) / (y1 - y0)): PyBullet puts v = 1 on a PNG's first row, so an image's row 0 lies at
+    the rectangle's largest y and its column 0 at the smallest x.
+    """
+    (x0, x1), (y0, y1) = x_range_m, y_range_m
+    columns = max(1, math.ceil((x1 - x0) / TEXTURED_CELL_M))
+    rows = max(1, math.ceil((y1 - y0) / TEXTURED_CELL_M))
+    u, v = np.meshgrid(np.linspace(0.0, 1.0, columns + 1), np.linspace(0.0, 1.0, rows + 1))
+    u, v = u.ravel(), v.ravel()
+    vertices = np.column_stack([x0 + u * (x1 - x0), y0 + v * (y1 - y0), np.full(u.size, float(z_m))])
+    corner = (np.arange(rows)[:, None] * (columns + 1) + np.arange(columns)[None, :]).ravel()
+    # Two counter-clockwise triangles (seen from above) per quad.
+    triangles = np.column_stack([corner, corner + 1, corner + columns + 2, corner, corner + columns + 2,
+                                 corner + columns + 1])
+    return pb.createVisualShape(pb.GEOM_MESH, vertices=vertices.tolist(), indices=triangles.ravel().tolist(),
+                                uvs=np.column_stack([u, v]).tolist(), normals=[[0.0, 0.0, 1.0]] * u.size,
+                                rgbaColor=[1.0, 1.0, 1.0, 1.0], physicsClientId=cid)
+
+
+def _texture(cid: int, image: np.ndarray, stem: str, folder: str) -> int:
+    """``image`` (uint8 (H, W, 3)) loaded as a texture, from a PNG in ``folder`` written once per image."""
+    image = np.ascontiguousarray(image, np.uint8)
+    path = os.path.join(folder, f"{stem}_{zlib.crc32(image.tobytes()):08x}_{image.shape[0]}x{image.shape[1]}.png")
+    if not os.path.exists(path):
+        with open(path, "wb") as handle:
+            handle.write(_png(image))
+    return pb.loadTexture(path, physicsClientId=cid)
 
 
 def build_vision_world(cid: int, world: World) -> tuple[list[int], float, list[int]]:
@@ -134,17 +192,12 @@ def _wall(cid: int, world: World, with_collision: bool) -> int | None:
                                                  ground.wall_height_m / 2.0], physicsClientId=cid)
 
 
-def checker_texture(cid: int, world: World, squares: int, folder: str) -> int:
-    """The appearance's checker, one texel per square, ``squares`` (even) a side; texel (i, j) has
-    ``ground_rgb`` where i + j is even (the square with a corner at the origin, on the floor's centre)."""
-    appearance = world.appearance
-    colours = to_uint8(np.array([appearance.ground_rgb, appearance.checker_rgb]))
-    path = os.path.join(folder, f"checker_{squares}_{colours.tobytes().hex()}.png")
-    if not os.path.exists(path):
-        parity = np.add.outer(np.arange(squares), np.arange(squares)) % 2
-        with open(path, "wb") as handle:
-            handle.write(_png(colours[parity]))
-    return pb.loadTexture(path, physicsClientId=cid)
+def checker_image(appearance, squares: int) -> np.ndarray:
+    """The appearance's checker over a floor of ``squares`` (even) squares a side centred on the origin,
+    one texel per square (uint8 (squares, squares, 3), row 0 at the largest y): the colour of
+    :func:`neuronav.trail_floor.ground_rgb_at` at each square's centre."""
+    centres = (np.arange(squares) + 0.5 - squares / 2.0) * appearance.checker_m
+    return to_uint8(ground_rgb_at(appearance, centres[None, :], centres[::-1, None]))
 
 
 def _png(image: np.ndarray) -> bytes:
