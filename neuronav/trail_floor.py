@@ -15,7 +15,10 @@ The image
 - **Where.** The rectangle holding every trail (a polyline trail's vertices widened by half its
   width and half its edge; an image trail's own rectangle) plus :data:`MARGIN_M` on every side,
   its corners snapped outwards to whole multiples of the pixel size. Pixels are square,
-  :data:`PIXEL_M` a side, larger only where a side would pass :data:`MAX_SIDE_PX` pixels.
+  :data:`PIXEL_M` a side, larger only where a side would pass :data:`MAX_SIDE_PX` pixels. On a
+  checker ground the corners snap to whole checker periods (``2 checker_m``) and a period is a
+  whole number of pixels (the pixel the largest divisor of the period not finer than
+  :data:`PIXEL_M`: 0.02 m for the default 0.5 m squares), so the image tiles the checker.
   Row 0 is at the rectangle's largest y and column 0 at its smallest x (the floor seen from above,
   the convention of :func:`neuronav.odour.rasterise`).
 - **Colour.** With ``c`` the trails' concentration at the pixel's centre (the sum over trails of
@@ -26,9 +29,8 @@ The image
 - **Ground under the trail.** A ``plain`` appearance gives ``g = ground_rgb`` everywhere. A
   ``checker`` appearance draws its checker into the image too (``checker_rgb`` where
   ``floor(x / checker_m) + floor(y / checker_m)`` is odd, sampled at the pixel centre), so the
-  rectangle continues the floor around it in videos; a checker edge inside the rectangle falls on
-  a pixel edge when ``checker_m`` is a whole number of pixels (0.5 m = 25 pixels by default) and
-  is otherwise drawn to the nearest pixel.
+  rectangle continues the floor around it in videos, every checker edge on a pixel edge when
+  ``checker_m`` is a whole number of pixels (0.5 m = 25 pixels by default; else to the nearest pixel).
 - **Sampling.** Engines sample the texture nearest (one texel, no blending, in body cameras);
   :meth:`TrailFloor.rgb_at` does the same from floor points, so the three backends paint the same
   texel at the same place.
@@ -184,12 +186,8 @@ def build_trail_floor(trails, appearance, pixel_m: float = PIXEL_M, margin_m: fl
     boxes = np.array([trail_extent_m(index, trail) for index, trail in enumerate(trails)])  # (T, 4)
     low = boxes[:, [0, 2]].min(axis=0) - margin_m
     high = boxes[:, [1, 3]].max(axis=0) + margin_m
-    # Square pixels; one pixel of slack keeps the snapped rectangle within max_side_px.
-    pixel = max(float(pixel_m), float((high - low).max()) / (max_side_px - 1))
-    start = np.floor(low / pixel)
-    count = np.maximum(np.ceil(high / pixel) - start, 1).astype(int)  # (W, H)
-    x0, y0 = start * pixel
-    width, height = int(count[0]), int(count[1])
+    period = 2.0 * appearance.checker_m if appearance.ground_texture == "checker" else None
+    (x0, y0), pixel, (width, height) = _grid(low, high, float(pixel_m), int(max_side_px), period)
     x1, y1 = x0 + width * pixel, y0 + height * pixel
     concentration = np.zeros((height, width))
     xs = x0 + (np.arange(width) + 0.5) * pixel  # pixel centres
@@ -213,6 +211,35 @@ def build_trail_floor(trails, appearance, pixel_m: float = PIXEL_M, margin_m: fl
     image.setflags(write=False)
     concentration.setflags(write=False)
     return TrailFloor(image, concentration, (float(x0), float(x1)), (float(y0), float(y1)))
+
+
+def _grid(low: np.ndarray, high: np.ndarray, pixel_m: float, max_side_px: int,
+          period_m: float | None) -> tuple[np.ndarray, float, tuple[int, int]]:
+    """The image's corner (x0, y0), square pixel side and (W, H) for the rectangle ``low``..``high`` (2,).
+
+    Pixels of ``pixel_m``, coarser where a side would pass ``max_side_px``; corners on multiples of
+    the pixel. With a checker of period ``period_m`` (two squares) the corners are on multiples of
+    the period and a period is a whole number of pixels: the image then tiles the checker seamlessly,
+    so an engine's texture filtering, which wraps around the image's edges (MuJoCo's lit follow
+    view), blends an edge with the same checker colours it continues. Past 1/``max_side_px`` of the
+    extent per period, a pixel covers whole periods (the checker is too fine to draw there).
+    """
+    if period_m is None:
+        pixel = max(pixel_m, float((high - low).max()) / (max_side_px - 1))  # one pixel of slack for the snap
+        start = np.floor(low / pixel)
+        count = np.maximum(np.ceil(high / pixel) - start, 1).astype(int)
+        return start * pixel, pixel, (int(count[0]), int(count[1]))
+    lo, hi = np.floor(low / period_m) * period_m, np.ceil(high / period_m) * period_m
+    periods = np.maximum(np.rint((hi - lo) / period_m), 1)
+    per_period = max(1, int(np.floor(period_m / pixel_m + 1e-9)))  # pixels per period, never finer than asked
+    per_period = min(per_period, int(max_side_px // periods.max()))
+    if per_period >= 1:
+        count = (periods * per_period).astype(int)
+        return lo, period_m / per_period, (int(count[0]), int(count[1]))
+    step = period_m * np.ceil(float(periods.max()) / max_side_px)  # whole periods per pixel
+    lo, hi = np.floor(low / step) * step, np.ceil(high / step) * step
+    count = np.maximum(np.rint((hi - lo) / step), 1).astype(int)
+    return lo, float(step), (int(count[0]), int(count[1]))
 
 
 def _is_polyline(trail) -> bool:

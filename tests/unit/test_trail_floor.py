@@ -111,6 +111,36 @@ def test_a_checker_ground_is_drawn_under_and_around_the_trail():
                                   [look.ground_rgb, look.checker_rgb, look.ground_rgb])
 
 
+@pytest.mark.parametrize("checker_m", [0.5, 0.3, 0.315])
+def test_on_a_checker_ground_the_image_tiles_the_checker(checker_m):
+    look = Appearance(ground_texture="checker", checker_m=checker_m)
+    floor = trail_floor(world_with(BENT, appearance=look))
+    period = 2 * checker_m
+    # Corners on whole periods, a period a whole number of pixels, pixels no finer than asked.
+    for corner in (*floor.x_range_m, *floor.y_range_m):
+        assert corner / period == pytest.approx(round(corner / period), abs=1e-9)
+    assert period / floor.pixel_m == pytest.approx(round(period / floor.pixel_m), abs=1e-9)
+    assert PIXEL_M <= floor.pixel_m < PIXEL_M * 1.05
+    # So the image continues periodically past its edges (what wrapping texture filters read there):
+    # the row beyond the bottom edge is the top row, the column beyond the right edge the first.
+    x1, y0 = floor.x_range_m[1], floor.y_range_m[0]
+    points = centres(floor)
+    below = to_uint8(ground_rgb_at(look, points[0, :, 0], y0 - floor.pixel_m / 2))
+    right = to_uint8(ground_rgb_at(look, x1 + floor.pixel_m / 2, points[:, 0, 1]))
+    np.testing.assert_array_equal(floor.image[0], below)
+    np.testing.assert_array_equal(floor.image[:, 0], right)
+
+
+def test_a_large_rectangle_on_a_checker_ground_keeps_to_the_side_limit():
+    look = Appearance(ground_texture="checker", checker_m=0.5)
+    for side_px in (64, 5):  # 2 or more pixels per period, then whole periods per pixel
+        floor = build_trail_floor((loop_trail((0.0, 0.0), 3.0),), look, max_side_px=side_px)
+        assert max(floor.shape_px) <= side_px
+        assert floor.image.shape[:2] == floor.concentration.shape == floor.shape_px
+        ratio = 1.0 / floor.pixel_m if floor.pixel_m < 1.0 else floor.pixel_m
+        assert ratio == pytest.approx(round(ratio), abs=1e-9)
+
+
 def test_rgb_at_is_the_nearest_texel_and_says_where_the_image_lies():
     floor = trail_floor(world_with(BENT))
     points = centres(floor)
