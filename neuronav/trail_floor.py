@@ -46,6 +46,8 @@ world reuses one image.
 
 from __future__ import annotations
 
+import struct
+import zlib
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -319,3 +321,19 @@ def trail_rgb_at(world, points_m) -> tuple[np.ndarray, np.ndarray] | None:
     when the world draws no trail."""
     floor = trail_floor(world)
     return None if floor is None else floor.rgb_at(points_m)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """An RGB uint8 image (H, W, 3) as PNG bytes (row 0 first; no imaging library needed), for engines
+    that load textures from files."""
+    image = np.ascontiguousarray(image, np.uint8)
+    if image.ndim != 3 or image.shape[2] != 3:
+        raise ConfigError(f"png_bytes: expected an RGB image of shape (H, W, 3), got {image.shape}")
+
+    def chunk(tag: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
+
+    height, width = image.shape[:2]
+    rows = b"".join(b"\x00" + row.tobytes() for row in image)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))

@@ -23,8 +23,10 @@ the scene is updated once; every view (a planar eye, or a panorama's cube faces)
 own viewport of one offscreen buffer with its own frustum (independent horizontal and vertical
 fields of view, clipped at ``NEAR_M``..``FAR_M``), and the buffer is read once, colour and depth.
 Flat shading: the scene's only light is an ambient headlight of 1 (no diffuse, specular, shadows,
-reflections, fog, haze or skybox), so each surface shows exactly its rgba; the checker texture is
-sampled nearest (one texel per square). Pixels left at the far plane are the sky mask. The body
+reflections, fog, haze or skybox), so each surface shows exactly its rgba; 2D textures are sampled
+nearest: the checker (one texel per square) and the odour trails' floor image
+(:mod:`neuronav.trail_floor`, on a plane just above the ground: each pixel shows one of its texels,
+as the kinematic ray caster paints it). Pixels left at the far plane are the sky mask. The body
 (geom group ``BODY_GROUP``) is drawn only for a camera that ``sees_body``.
 ``"follow"`` is the shared follow view (:func:`neuronav.articulated.follow_view`): the free camera
 looks at its target from its distance, with the model's free-camera field of view set to it; it is

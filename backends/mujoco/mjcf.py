@@ -45,7 +45,7 @@ import numpy as np  # noqa: E402
 from neuronav.articulated import FOLLOW_SIZE_PX  # noqa: E402
 from neuronav.body import BodySpec, Segment  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
-from neuronav.trail_floor import TrailFloor, trail_floor  # noqa: E402
+from neuronav.trail_floor import TrailFloor, png_bytes, trail_floor  # noqa: E402
 from neuronav.vision import CUBE_FACE_ROTATIONS, GROUND_REACH_M, check_camera, cube_face_px  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
@@ -137,9 +137,24 @@ def compile_model(world: World, body: BodySpec, timestep_s: float = 0.002) -> tu
     return model, names
 
 
-def to_xml(world: World, body: BodySpec, timestep_s: float = 0.002) -> str:
-    """The model as MJCF text (for inspection or for loading in MuJoCo's viewer)."""
+def to_xml(world: World, body: BodySpec, timestep_s: float = 0.002, asset_dir: str | None = None) -> str:
+    """The model as MJCF text (for inspection or for loading in MuJoCo's viewer).
+
+    MJCF cannot hold texture data: a world with odour trails needs ``asset_dir``, a folder where
+    their floor image is written (``trails.png``), which the text names by its absolute path.
+    """
     spec, _ = build_spec(world, body, timestep_s)
+    texture = next((t for t in spec.textures if t.name == "trails"), None)
+    if texture is not None:
+        if asset_dir is None:
+            raise ConfigError("to_xml: this world draws odour trails on the floor; give asset_dir, a folder for "
+                              "their texture (MJCF cannot hold texture data)")
+        path = os.path.abspath(os.path.join(asset_dir, "trails.png"))
+        with open(path, "wb") as handle:
+            handle.write(png_bytes(trail_floor(world).image))
+        texture.data = b""
+        texture.file = path
+        texture.content_type = "image/png"
     spec.compile()
     return spec.to_xml()
 

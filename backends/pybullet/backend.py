@@ -53,7 +53,8 @@ Design
   queried when ``contact_force`` is read or adhesion is on.
 - The floor in the physics client looks as ``World.appearance`` says (plain ``ground_rgb``, or its
   checker as one texture over ``Ground.size_m``, squares aligned with the world axes) so that motion
-  shows in videos, as on MuJoCo.
+  shows in videos, as on MuJoCo; a world's odour trails are drawn over it (:mod:`neuronav.trail_floor`;
+  :mod:`backends.pybullet.scene`), and body cameras paint them on their floor pixels.
 - What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in
   :attr:`warnings`, as are the notes above and the reason of a divergence.
 - Body cameras follow :mod:`neuronav.vision` (planar views, spherical ones from cube faces, the sky,

@@ -24,14 +24,13 @@ from __future__ import annotations
 
 import math
 import os
-import struct
 import zlib
 
 import numpy as np
 
 from backends.pybullet.engine import pb
 from neuronav.errors import ConfigError
-from neuronav.trail_floor import TrailFloor, ground_rgb_at, trail_floor
+from neuronav.trail_floor import TrailFloor, ground_rgb_at, png_bytes, trail_floor
 from neuronav.vision import GROUND_REACH_M, to_uint8
 from neuronav.world import World, WorldObject
 
@@ -130,7 +129,7 @@ def _texture(cid: int, image: np.ndarray, stem: str, folder: str) -> int:
     path = os.path.join(folder, f"{stem}_{zlib.crc32(image.tobytes()):08x}_{image.shape[0]}x{image.shape[1]}.png")
     if not os.path.exists(path):
         with open(path, "wb") as handle:
-            handle.write(_png(image))
+            handle.write(png_bytes(image))
     return pb.loadTexture(path, physicsClientId=cid)
 
 
@@ -198,17 +197,6 @@ def checker_image(appearance, squares: int) -> np.ndarray:
     :func:`neuronav.trail_floor.ground_rgb_at` at each square's centre."""
     centres = (np.arange(squares) + 0.5 - squares / 2.0) * appearance.checker_m
     return to_uint8(ground_rgb_at(appearance, centres[None, :], centres[::-1, None]))
-
-
-def _png(image: np.ndarray) -> bytes:
-    """An RGB uint8 image (H, W, 3) as PNG bytes (no imaging library needed)."""
-    def chunk(tag: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + tag + data + struct.pack(">I", zlib.crc32(tag + data))
-
-    height, width = image.shape[:2]
-    rows = b"".join(b"\x00" + row.tobytes() for row in np.ascontiguousarray(image, np.uint8))
-    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
 
 
 def build_object(cid: int, world: World, obj: WorldObject, with_collision: bool = True) -> int:

@@ -219,3 +219,20 @@ def test_the_videos_checker_floor_has_squares_of_checker_m_with_the_shared_parit
     assert (image[~odd].mean() - image[odd].mean()) > 25  # ground_rgb is the lighter colour
     lighter = image > 0.5 * (image[~odd].mean() + image[odd].mean())
     assert (lighter == ~odd).mean() > 0.97
+
+
+def test_the_mjcf_text_of_a_world_with_trails_names_their_texture_file(tmp_path):
+    mujoco = pytest.importorskip("mujoco")
+    from backends.mujoco.mjcf import compile_model, to_xml
+    from neuronav.errors import ConfigError
+
+    world = World(odour=OdourScene(trails=(BENT,)))
+    with pytest.raises(ConfigError, match="asset_dir"):
+        to_xml(world, post())
+    loaded = mujoco.MjModel.from_xml_string(to_xml(world, post(), asset_dir=str(tmp_path)))
+    built, _ = compile_model(world, post())
+    texture = {model: mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXTURE, "trails") for model in (loaded, built)}
+    data = [model.tex_data[model.tex_adr[t]:model.tex_adr[t] + model.tex_height[t] * model.tex_width[t] * 3]
+            for model, t in texture.items()]
+    np.testing.assert_array_equal(data[0], data[1])
+    np.testing.assert_array_equal(data[1], trail_floor(world).image.ravel())
