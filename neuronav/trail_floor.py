@@ -203,13 +203,19 @@ def build_trail_floor(trails, appearance, pixel_m: float = PIXEL_M, margin_m: fl
         if c1 <= c0 or r1 <= r0:
             continue
         if _is_polyline(trail):
-            concentration[r0:r1, c0:c1] += trail.profile(_polyline_distance_m(trail, xs[c0:c1], ys[r0:r1], pixel))
+            distance = _polyline_distance_m(trail, xs[c0:c1], ys[r0:r1], pixel)
+            near = np.isfinite(distance)  # the pixels within the trail's reach (the others stay at 0)
+            concentration[r0:r1, c0:c1][near] += trail.profile(distance[near])
         else:
             concentration[r0:r1, c0:c1] += rasterise(trail, (x0 + c0 * pixel, x0 + c1 * pixel),
                                                      (y1 - r1 * pixel, y1 - r0 * pixel), (r1 - r0, c1 - c0))
     np.clip(concentration, 0.0, 1.0, out=concentration)
-    ground = ground_rgb_at(appearance, xs[None, :], ys[:, None])  # (H, W, 3)
-    image = to_uint8(blend_rgb(ground, concentration))
+    # The ground's colour as an index into (ground_rgb, checker_rgb); blended only where a trail lies.
+    palette = np.array([appearance.ground_rgb, appearance.checker_rgb], float)
+    which = _checker_odd(appearance, xs[None, :], ys[:, None]).astype(np.intp)  # (H, W)
+    image = to_uint8(palette)[which]
+    on = concentration > 0.0
+    image[on] = to_uint8(blend_rgb(palette[which[on]], concentration[on]))
     image.setflags(write=False)
     concentration.setflags(write=False)
     return TrailFloor(image, concentration, (float(x0), float(x1)), (float(y0), float(y1)))
@@ -300,13 +306,18 @@ def trail_extent_m(index: int, trail) -> tuple[float, float, float, float]:
 def ground_rgb_at(appearance, x_m, y_m) -> np.ndarray:
     """The ground's float RGB (..., 3) at floor points (arrays broadcasting to (...)): ``ground_rgb``,
     or on a checker ground ``checker_rgb`` where ``floor(x / checker_m) + floor(y / checker_m)`` is odd."""
-    x, y = np.broadcast_arrays(np.asarray(x_m, float), np.asarray(y_m, float))
-    ground = np.asarray(appearance.ground_rgb, float)
+    odd = _checker_odd(appearance, x_m, y_m)[..., None]
+    return np.where(odd, np.asarray(appearance.checker_rgb, float), np.asarray(appearance.ground_rgb, float))
+
+
+def _checker_odd(appearance, x_m, y_m) -> np.ndarray:
+    """Where the ground shows ``checker_rgb`` (bool, the broadcast shape of ``x_m`` and ``y_m``)."""
+    x, y = np.asarray(x_m, float), np.asarray(y_m, float)
     if appearance.ground_texture != "checker":
-        return np.broadcast_to(ground, (*x.shape, 3)).copy()
+        return np.zeros(np.broadcast_shapes(x.shape, y.shape), bool)
     size = appearance.checker_m
-    odd = ((np.floor(x / size) + np.floor(y / size)) % 2 == 1)[..., None]
-    return np.where(odd, np.asarray(appearance.checker_rgb, float), ground)
+    # Each coordinate's square first (a row and a column of an image cost a row and a column), then their sum.
+    return (np.floor(x / size) + np.floor(y / size)) % 2 == 1
 
 
 def blend_rgb(ground_rgb, concentration) -> np.ndarray:
