@@ -23,7 +23,13 @@ clockwise from +y and the difference wrapped to [−180°, 180°): a desired hea
 the current one (m_cw > h_cw) gives θ = −1, a right turn. "mod 5°" is the floor modulo (Python's
 ``%``, the value in [0°, 5°)), so S_l lies in [5°, 10°) and the 15° cap never binds; the formula is
 kept as written. The upwind heading of a wind (w_x, w_y) is that of the vector (−w_x, −w_y):
-``atan2(−w_x, −w_y)`` clockwise from +y. When both antennae smell the same, the left one's wind is
+``atan2(−w_x, −w_y)`` clockwise from +y.
+
+``stride_rule="divide"`` reads the stride as ``min(5° + |m − h| / 5, 15°)`` instead, the form of the
+visual compass's eq. 3.10 (S_l = |Φ(t) − Φ(0)| / 5) and the only reading in which the 15° cap binds
+(from a 50° difference on). It is an option, not the default: eq. 3.11 is printed with "%". It turns
+the ant faster toward upwind (a 15° stride turns it about 35° per gait cycle on the spot, a 5° one
+about 12°), so fewer of its straight runs leave the plume. When both antennae smell the same, the left one's wind is
 used (the wind is the same at both tips in neuronav's uniform wind, so nothing depends on it).
 
 The controller keeps one number per agent (straight cycles still to walk) and works on a batch of
@@ -60,19 +66,28 @@ def upwind_heading_rad(wind_mps) -> np.ndarray:
     return np.arctan2(-wind[..., 0], -wind[..., 1])
 
 
-def eq_3_11(desired_heading_rad, heading_rad) -> tuple[np.ndarray, np.ndarray]:
+STRIDE_RULES = ("mod", "divide")
+
+
+def eq_3_11(desired_heading_rad, heading_rad, stride_rule: str = "mod") -> tuple[np.ndarray, np.ndarray]:
     """Turn θ and stride S_l (rad) of eq. 3.11 toward a desired heading (both clockwise from +y).
+
+    ``stride_rule``: ``mod`` (as printed: ``(m − h) mod 5°``) or ``divide`` (``|m − h| / 5``).
 
     Returns
     -------
     turn : ndarray
         sign of the paper's m − h (here h_cw − m_cw, wrapped): +1 turns left, −1 right, 0 when aligned.
     stride_rad : ndarray
-        ``min(5° + |(m − h) mod 5°|, 15°)`` in radians.
+        ``min(5° + |(m − h) mod 5°|, 15°)`` (or ``min(5° + |m − h| / 5, 15°)``) in radians.
     """
+    if stride_rule not in STRIDE_RULES:
+        raise ConfigError(f"plume stride_rule: expected one of {', '.join(STRIDE_RULES)}, got {stride_rule!r}")
     difference_deg = np.degrees(wrap_rad(np.asarray(heading_rad, float) - np.asarray(desired_heading_rad, float)))
     turn = np.sign(difference_deg)
-    stride_deg = np.minimum(MIN_STRIDE_DEG + np.abs(np.mod(difference_deg, STRIDE_STEP_DEG)), MAX_STRIDE_DEG)
+    extra_deg = np.abs(np.mod(difference_deg, STRIDE_STEP_DEG) if stride_rule == "mod"
+                       else difference_deg / STRIDE_STEP_DEG)
+    stride_deg = np.minimum(MIN_STRIDE_DEG + extra_deg, MAX_STRIDE_DEG)
     return turn, np.radians(stride_deg)
 
 
@@ -90,10 +105,13 @@ class PlumeController:
         Odour detection threshold (amount/m³), the paper's 1e-6.
     straight_cycles : int
         Gait cycles walked straight after each orienting cycle (the paper's 2).
+    stride_rule : str
+        ``mod`` (eq. 3.11 as printed) or ``divide`` (see the module docstring).
     """
 
     def __init__(self, agents: int = 1, seed: int | np.random.Generator | None = 0,
-                 threshold: float = ODOUR_THRESHOLD, straight_cycles: int = STRAIGHT_CYCLES) -> None:
+                 threshold: float = ODOUR_THRESHOLD, straight_cycles: int = STRAIGHT_CYCLES,
+                 stride_rule: str = "mod") -> None:
         if not (isinstance(agents, int | np.integer) and agents >= 1):
             raise ConfigError(f"plume controller agents: expected an integer >= 1, got {agents!r}")
         if isinstance(threshold, bool) or not (isinstance(threshold, int | float) and np.isfinite(threshold)
@@ -101,7 +119,11 @@ class PlumeController:
             raise ConfigError(f"plume controller threshold: expected a finite number >= 0, got {threshold!r}")
         if not (isinstance(straight_cycles, int | np.integer) and straight_cycles >= 0):
             raise ConfigError(f"plume controller straight_cycles: expected an integer >= 0, got {straight_cycles!r}")
+        if stride_rule not in STRIDE_RULES:
+            raise ConfigError(f"plume controller stride_rule: expected one of {', '.join(STRIDE_RULES)}, "
+                              f"got {stride_rule!r}")
         self.agents, self.threshold, self.straight_cycles = int(agents), float(threshold), int(straight_cycles)
+        self.stride_rule = stride_rule
         self.rng = np.random.default_rng(seed)
         self.straight_left = np.zeros(self.agents, dtype=int)
 
@@ -138,7 +160,7 @@ class PlumeController:
         smelled = ~straight & (odour.max(axis=1) > self.threshold)
         stronger = np.argmax(odour, axis=1)  # 0 (left) on ties
         desired = upwind_heading_rad(wind[np.arange(n), stronger])
-        orient_turn, orient_stride = eq_3_11(desired, heading)
+        orient_turn, orient_stride = eq_3_11(desired, heading, self.stride_rule)
         turn = np.where(straight, 0.0, np.where(smelled, orient_turn, signs))
         stride = np.where(straight, STRAIGHT_STRIDE_RAD, np.where(smelled, orient_stride, SEARCH_STRIDE_RAD))
         branch = np.where(straight, STRAIGHT, np.where(smelled, ORIENT, SEARCH))

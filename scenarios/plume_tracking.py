@@ -7,12 +7,28 @@ second into a wind of mean ``(wind_mps, 0)`` m/s plus coloured noise. The plume 
 Every trial's seed seeds the plume (``backend.reset(seed)``), the start and the brain's search turns.
 
 The ant starts downwind at ``x = start_x_m``, at a lateral position drawn uniformly within
-``±start_lateral_m`` of the plume's axis and a heading drawn uniformly in [−π, π). Once per gait cycle
+``±start_lateral_m`` (0.5 m) of the plume's axis and a heading drawn uniformly within
+``±start_heading_deg`` (45°) of upwind (180: any heading). Once per gait cycle
 (0.64 s) the brain reads ``odour`` (1, 2, K) and ``wind`` (1, 2, 2) at the antenna tips and its
 ``heading``, and steers by eq. 3.11 (:class:`brains.plume_tracking.PlumeController`): with odour
 above 1e-6 at either antenna it turns toward upwind as sensed at the antenna with more odour, then
 walks straight two gait cycles; without odour it turns on the spot at random. ``odour=off`` is the
-control: the brain's odour input is zero, so it always searches.
+control: the brain's odour input is zero, so it always searches. ``stride_rule=divide`` reads eq.
+3.11's stride as ``5° + |m − h| / 5`` (at most 15°) instead of the printed ``5° + (m − h) mod 5°``
+(:mod:`brains.plume_tracking`).
+
+The start matters: an ant that loses the plume turns on the spot until the meandering plume comes
+back over it, and each orienting turn (12–23° per gait cycle at a 5–10° stride) is followed by two
+straight cycles (about 1.2 m), so an ant that starts facing across or down the wind often walks out
+of the plume before it faces upwind. Measured on the kinematic backend, 30 trials (seeds 0–29),
+60 s, the fraction that reached the source::
+
+    start heading within   ±45°   ±90°   ±180°
+    stride_rule=mod        0.77   0.50   0.43
+    stride_rule=divide     0.83   0.93   0.43
+
+(``neuronav run plume-tracking --backend kinematic --trials 30 --set start_heading_deg=H
+--set stride_rule=R``.)
 
 Metrics (per trial)
 -------------------
@@ -66,8 +82,10 @@ class PlumeTrackingConfig:
     start_x_m: float = field(7.0, "the ant starts at this x, downwind (m)", min=1.0, max=7.9)
     start_lateral_m: float = field(0.5, "the start's y is drawn uniformly within +-this of the plume axis (m)",
                                    min=0.0, max=1.9)
-    start_heading_deg: float = field(90.0, "the start heading is drawn uniformly within +-this of upwind (deg; "
+    start_heading_deg: float = field(45.0, "the start heading is drawn uniformly within +-this of upwind (deg; "
                                      "180: any heading)", min=0.0, max=180.0)
+    stride_rule: str = field("mod", "eq. 3.11's orienting stride: mod (5 deg + (m - h) mod 5 deg, as printed) "
+                             "or divide (5 deg + |m - h| / 5, at most 15 deg)", choices=("mod", "divide"))
     threshold: float = field(1e-6, "odour detection threshold T_o (amount/m^3; the paper: 1e-6)",
                              min_exclusive=0.0, max=1e3)
     success_radius_m: float = field(0.5, "success: the root or an antenna tip comes this close to the source (m)",
@@ -110,7 +128,7 @@ class PlumeBrain:
     def __init__(self, config: PlumeTrackingConfig, seed: int) -> None:
         self.config = config
         self.controller = PlumeController(agents=1, seed=np.random.default_rng([seed, 13]),
-                                          threshold=config.threshold)
+                                          threshold=config.threshold, stride_rule=config.stride_rule)
         self.log: dict[str, list] = {k: [] for k in ("cycle_time_s", "branch", "turn", "stride_rad")}
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:

@@ -17,10 +17,10 @@ from scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_t
 UPWIND_RAD = -np.pi / 2  # against the wind along +x, clockwise from +y
 
 
-def across_the_plume(odour: str, seconds: float = 8.0, seed: int = 3):
+def across_the_plume(odour: str, seconds: float = 8.0, seed: int = 3, stride_rule: str = "mod"):
     """The kinematic ant at x = 5 m on the plume's axis (the median y of the puffs there at the start),
     facing +y: upwind is 90° to its left."""
-    config = PlumeTrackingConfig(odour=odour, timeout_s=seconds, warmup_s=5.0)
+    config = PlumeTrackingConfig(odour=odour, timeout_s=seconds, warmup_s=5.0, stride_rule=stride_rule)
     chemistry = Chemistry(plume_world(config).odour)
     chemistry.reset(seed)
     puffs = chemistry.plume.puffs.position_m
@@ -36,6 +36,15 @@ def test_an_ant_started_across_the_plume_turns_upwind_and_walks_up_it():
     assert heading_error < np.radians(30)  # from 90° off in 8 s (four orienting cycles)
     assert log["position_m"][-1, 0] < 5.0 - 1.0  # and walked upwind
     assert row["odour_fraction"] > 0.5
+
+
+def test_the_divide_stride_rule_turns_the_ant_upwind_in_fewer_cycles():
+    _, printed = across_the_plume("on", seconds=2.0)
+    _, divide = across_the_plume("on", seconds=2.0, stride_rule="divide")
+    assert 5.0 <= np.degrees(printed["stride_rad"][0]) < 10.0  # 5° + (about 90°) mod 5°
+    assert np.degrees(divide["stride_rad"][0]) == pytest.approx(15.0)  # min(5° + about 90° / 5, 15°)
+    turned = [abs(log["heading_rad"][-1]) for log in (printed, divide)]  # from 0 toward −90°
+    assert turned[1] > turned[0] + np.radians(10)
 
 
 def test_without_odour_the_same_ant_only_turns_on_the_spot():

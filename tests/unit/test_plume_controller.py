@@ -58,6 +58,15 @@ def test_stride_stays_within_five_and_ten_degrees_for_any_difference():
     assert np.degrees(stride).min() >= 5.0 and np.degrees(stride).max() < 10.0
 
 
+@pytest.mark.parametrize(("desired_deg", "stride_deg"), [(-7.0, 6.4), (20.0, 9.0), (-50.0, 15.0), (-90.0, 15.0)])
+def test_divide_rule_adds_a_fifth_of_the_difference_capped_at_fifteen_degrees(desired_deg, stride_deg):
+    turn, stride = eq_3_11(np.radians(desired_deg), 0.0, stride_rule="divide")
+    np.testing.assert_allclose(np.degrees(stride), stride_deg, atol=1e-9)
+    assert turn == -np.sign(desired_deg)  # the same turn as the printed rule
+    brain = PlumeController(seed=0, stride_rule="divide")
+    np.testing.assert_allclose(np.degrees(brain.step(SMELL, WIND_PLUS_X, [0.0])[1][0]), 15.0)  # 90° off
+
+
 def test_odour_orients_upwind_then_walks_straight_two_cycles_then_decides_again():
     brain = PlumeController(agents=1, seed=0)
     heading = np.array([0.0])  # facing +y; upwind (−x) is on the left
@@ -114,7 +123,7 @@ def test_agents_in_a_batch_follow_their_own_branch():
 
 
 @pytest.mark.parametrize("kwargs", [dict(agents=0), dict(threshold=-1.0), dict(threshold=float("nan")),
-                                    dict(straight_cycles=-1)])
+                                    dict(straight_cycles=-1), dict(stride_rule="round")])
 def test_bad_settings_are_refused(kwargs):
     with pytest.raises(ConfigError):
         PlumeController(**kwargs)
