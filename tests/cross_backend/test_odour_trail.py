@@ -5,6 +5,8 @@ the kinematic unicycle and the MuJoCo ant; the metrics follow their definitions.
 (n = 10 per antenna mode and width on MuJoCo and PyBullet) is ``slow``.
 """
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -82,3 +84,46 @@ def test_bad_settings_are_config_errors():
     scenario = load_scenario("odour-trail")
     with pytest.raises(ConfigError, match="timestep_s"):
         scenario.check(apply_overrides(OdourTrailConfig, ["timestep_s=0.003"]), "mujoco")
+
+
+@functools.cache
+def protocol(backend: str, width: str):
+    """The full protocol at one width: 20 trials of ``both`` (seeds 0–19: 10 fixed, 10 moving); run
+    once per session, shared by the two slow tests."""
+    return trail_run(backend, 20, width=width)
+
+
+def finish_median_s(aggregates: dict, mode: str) -> float:
+    """A mode's median finish time, infinite when none of its trials finished."""
+    value = aggregates[f"median_finish_{mode}_s"]
+    return float("inf") if np.isnan(value) else value
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
+def test_full_protocol_what_the_model_does(backend):
+    """What was measured (n = 10 per mode and width): with the body's antennae (odour sites 0.43 m
+    apart) neither mode follows the normal trail (0.27 m) past its first metres, both sites off
+    it whenever the ant is centred on it; on the wide trail both modes get round the first bend and
+    some trials of each reach the end."""
+    normal = protocol(backend, "normal").aggregates
+    wide = protocol(backend, "wide").aggregates
+    assert normal["completion_fixed"] < 0.3 and normal["completion_moving"] < 0.3, normal
+    assert normal["success_fixed"] == 0.0 and normal["success_moving"] == 0.0, normal
+    assert wide["completion_fixed"] > 0.5 and wide["completion_moving"] > 0.5, wide
+    assert wide["success_fixed"] > 0.0 and wide["success_moving"] > 0.0, wide
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="the paper's finding does not emerge in this model (measured on MuJoCo and "
+                   "PyBullet, n = 10 per mode and width: see the scenario's module docstring)")
+@pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
+def test_full_protocol_the_papers_finding(backend):
+    """The paper's Fig. 6c–d: moving antennae do about as well as fixed ones on the normal trail and
+    clearly better on the wide one (completion and finish time)."""
+    normal = protocol(backend, "normal").aggregates
+    wide = protocol(backend, "wide").aggregates
+    assert abs(normal["completion_moving"] - normal["completion_fixed"]) < 0.1, normal
+    assert normal["completion_moving"] > 0.5, normal  # "about as well" must mean following the trail
+    assert wide["completion_moving"] > wide["completion_fixed"] + 0.1, wide
+    assert finish_median_s(wide, "moving") < finish_median_s(wide, "fixed"), wide
