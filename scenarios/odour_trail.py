@@ -35,14 +35,20 @@ mujoco    normal  0.155 / 0.151         0 / 0                 — / —
 mujoco    wide    0.827 / 0.730         5/10 / 3/10           82.2 / 81.5
 pybullet  normal  0.021 / 0.027         0 / 0                 — / —
 pybullet  wide    0.752 / 0.727         3/10 / 2/10           67.1 / 55.8
+kinematic normal  0.069 / 0.074         0 / 0                 — / —
+kinematic wide    0.637 / 0.738         0 / 3/10              — / 62.2
 ========  ======  ====================  ====================  ============================
+
+With ``--set antenna_length_m=0.25`` (odour sites 0.24 m apart, inside the normal trail) on MuJoCo:
+normal 0.396 / 0.544 completion (no success), wide 0.841 / 0.703 (5/10 / 1/10, 28.4 / 75.6 s).
 
 Normal trail: the body's odour sites sit 0.43 m apart (tips of 0.541 m antennae), wider than the
 0.27 m trail, so whenever the ant is centred on it neither site smells it and Table 3 searches on
-the spot; both modes stay near the start (the same on the narrow trail). Wide trail: both modes
+the spot; both modes stay near the start. Wide trail: both modes
 walk straight along it and get round the first bend; at the 127° bend most ants turn back along
 the trail (Table 3 has no sense of direction), some walk back to the trail's start, turn there and
-come back (hence finish times near 80 s). Sweeping did not help at that bend.
+come back (hence finish times near 80 s). On the physics ants sweeping did not help at that bend
+(on the kinematic unicycle it did, a little).
 """
 
 from __future__ import annotations
