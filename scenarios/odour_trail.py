@@ -68,7 +68,7 @@ from neuronav.odour import TRAIL_WIDTHS_M, PolylineTrail
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import vision_appearance
 from neuronav.world import Ground, World
-from scenarios.trial_loop import run_loop, trials_one_by_one
+from scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 ANTENNA_MODES = ("fixed", "moving")
@@ -282,13 +282,5 @@ class OdourTrail(Scenario):
 
 def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
     """Per-cycle logs of unequal length as NaN-padded arrays (trials, cycles, ...)."""
-    cycles = max(len(log["time_s"]) for log in logs)
-    packed = {}
-    for key in ("time_s", "heading_rad", "odour_L", "odour_R", "centre_odour", "turn", "stride_rad"):
-        packed[key] = np.full((len(logs), cycles), np.nan)
-        for i, log in enumerate(logs):
-            packed[key][i, : len(log[key])] = log[key]
-    packed["position_m"] = np.full((len(logs), cycles + 1, 2), np.nan)
-    for i, log in enumerate(logs):
-        packed["position_m"][i, : len(log["position_m"])] = log["position_m"]
-    return packed
+    return pack_cycle_logs(logs, ("time_s", "heading_rad", "odour_L", "odour_R", "centre_odour", "turn",
+                                  "stride_rad"))

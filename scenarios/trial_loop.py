@@ -61,3 +61,18 @@ def trials_one_by_one(trial: Callable, trials: int, seed: int, video_path=None) 
         rows.append(dict(row, trial=i, seed=seed + i))
         logs.append(log)
     return rows, logs
+
+
+def pack_cycle_logs(logs: list[dict], keys: Sequence[str]) -> dict[str, np.ndarray]:
+    """Per-cycle logs of unequal length as NaN-padded arrays: each of ``keys`` (trials, cycles) and
+    ``position_m`` (trials, cycles + 1, 2) (the final position after the last cycle)."""
+    cycles = max(len(log["time_s"]) for log in logs)
+    packed = {}
+    for key in keys:
+        packed[key] = np.full((len(logs), cycles), np.nan)
+        for i, log in enumerate(logs):
+            packed[key][i, : len(log[key])] = log[key]
+    packed["position_m"] = np.full((len(logs), cycles + 1, 2), np.nan)
+    for i, log in enumerate(logs):
+        packed["position_m"][i, : len(log["position_m"])] = log["position_m"]
+    return packed

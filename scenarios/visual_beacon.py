@@ -33,7 +33,7 @@ from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import forest, landmark, vision_appearance
 from neuronav.world import Ground, World
 from scenarios.embodied_homing import steering_command
-from scenarios.trial_loop import run_loop, trials_one_by_one
+from scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 EYE_MODES = ("left", "right", "both")
@@ -208,15 +208,7 @@ class VisualBeacon(Scenario):
 
 def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
     """Per-cycle logs of unequal length as NaN-padded arrays (trials, cycles, ...), and the first views."""
-    cycles = max(len(log["time_s"]) for log in logs)
-    packed = {}
-    for key in ("time_s", "heading_rad", "shift", "turn", "stride_rad"):
-        packed[key] = np.full((len(logs), cycles), np.nan)
-        for i, log in enumerate(logs):
-            packed[key][i, : len(log[key])] = log[key]
-    packed["position_m"] = np.full((len(logs), cycles + 1, 2), np.nan)
-    for i, log in enumerate(logs):
-        packed["position_m"][i, : len(log["position_m"])] = log["position_m"]
+    packed = pack_cycle_logs(logs, ("time_s", "heading_rad", "shift", "turn", "stride_rad"))
     for name in ("eye_L", "eye_R"):
         shape = next((log["first_view"][name].shape for log in logs if name in log["first_view"]), None)
         if shape is None:
