@@ -1,7 +1,7 @@
 """Antennae that stay fixed or sweep, for the ant on every backend.
 
-Source: ``reference/parameters.md`` §3 (odour trail: antennae fixed, or swept in yaw ±0.7 rad with
-noise; I2Bot paper §2.5.1, after Draft et al. 2018's carpenter ants).
+Source: the I2Bot paper §2.5.1 and its methods (odour trail: antennae fixed, or swept in yaw
+±0.7 rad with noise, after Draft et al. 2018's carpenter ants); ``docs/parameters.md`` §5.
 
 :class:`AntennaSweep` gives the antennae's yaw offsets from rest over time. Both antennae pan
 together, left then right, ``amplitude_rad · sin(φ)``, with the phase φ advancing by

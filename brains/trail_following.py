@@ -1,7 +1,7 @@
 """Odour trail following (the I2Bot paper's Table 3): two antennae's concentrations -> (turn, stride).
 
-Source: I2Bot paper §2.5.1, Table 3 and the methods' "Odour trail following"; ``reference/parameters.md``
-§3. Once per gait cycle the controller reads the odour at the left and right antenna, O_l and O_r,
+Source: I2Bot paper §2.5.1, Table 3 and the methods' "Odour trail following"; ``docs/parameters.md``
+§5. Once per gait cycle the controller reads the odour at the left and right antenna, O_l and O_r,
 and their difference O_d = O_l − O_r, and picks one of three states:
 
 =================  ===========================  ==================  ==========

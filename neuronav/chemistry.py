@@ -30,7 +30,7 @@ import numpy as np
 from neuronav.errors import ConfigError
 from neuronav.plume import Plume, PlumeConfig
 
-# Farrell et al. 2002's timestep (reference/parameters.md §6).
+# Farrell et al. 2002's timestep (docs/parameters.md §5).
 PLUME_DT_S = 0.01
 
 

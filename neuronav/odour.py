@@ -1,6 +1,6 @@
 """Engine-free odour trails on the floor: a polyline with a width, or a greyscale image.
 
-Sources (``reference/parameters.md`` §3, the I2Bot paper §2.5.1): the trail is drawn on the floor
+Sources (the I2Bot paper §2.5.1, Fig. 6b; ``docs/parameters.md`` §5): the trail is drawn on the floor
 (widths narrow ≈ 0.11 m, normal ≈ 0.27 m, wide ≈ 1.4 m, :data:`TRAIL_WIDTHS_M`); the paper draws it
 as a floor texture, which may be drawn by hand, hence :class:`ImageTrail`.
 

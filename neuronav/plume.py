@@ -1,6 +1,7 @@
 """Engine-free filament odour plume and wind (Farrell et al. 2002), vectorised over puffs and query points.
 
-Sources: ``reference/parameters.md`` §6 (the model, Farrell's defaults) and §3 (the I2Bot arena);
+Sources: Farrell et al. 2002 (the model and its defaults) and the I2Bot paper's methods (the arena),
+tabulated in ``docs/parameters.md`` §5;
 the I2Bot paper (§2.5.2, methods) used pompy, the Python implementation of Farrell et al. 2002.
 
 The model

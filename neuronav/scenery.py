@@ -1,6 +1,6 @@
 """Visual worlds: the dark landmark, a seeded forest, the compass scene and the look of the sky and ground.
 
-Sources (``reference/parameters.md`` §3, the I2Bot paper's case studies):
+Sources (the I2Bot paper's case studies, §3.3.4; ``docs/parameters.md`` §7):
 
 - Visual beacon: "landmark black cylinder r 1 m, h 6 m at 25 m; forests of trees around"; the eyes
   find it by thresholding dark pixels (dark <= 10–25 of 255). :func:`landmark` builds it and
@@ -42,7 +42,7 @@ def vision_appearance() -> Appearance:
 
 def landmark(position_m=(0.0, 25.0), radius_m: float = 1.0, height_m: float = 6.0) -> WorldObject:
     """The visual beacon's landmark: a black cylinder of ``radius_m`` and ``height_m`` standing on the
-    ground at ``position_m`` (x, y) (parameters.md §3: r 1 m, h 6 m, 25 m away)."""
+    ground at ``position_m`` (x, y) (I2Bot §3.3.4, docs/parameters.md §7: r 1 m, h 6 m, 25 m away)."""
     x, y = (float(v) for v in position_m)
     if not (np.isfinite([x, y]).all() and radius_m > 0 and height_m > 0):
         raise ConfigError(f"landmark: needs a finite position and radius_m, height_m > 0, got {position_m}, "
@@ -156,7 +156,7 @@ COMPASS_FLOOR_M = 12.0
 def compass_scene() -> World:
     """The visual compass's world: a 12 m floor and five coloured objects (a cylinder, the red ball,
     two boxes, a cone) 13–17 m from the origin at distinct bearings, each standing on the ground,
-    under :func:`vision_appearance` (parameters.md §3)."""
+    under :func:`vision_appearance` (docs/parameters.md §7)."""
     objects = []
     for shape, distance, bearing_deg, size, rgba in COMPASS_OBJECTS:
         bearing = np.radians(bearing_deg)

@@ -11,7 +11,7 @@ and steers toward it through CPU1:
     S_l = 5° + 20° · (1 − min(|θ|, 1))            (eq. 3.7)
 
 ``eye`` picks the left eye, the right one, both, or ``cycle`` (trial seed mod 3: left, right,
-both — one run shows all three). Start headings as the paper's (parameters.md §3): the landmark
+both — one run shows all three). Start headings as the paper's (I2Bot §3.3.4; docs/parameters.md §7): the landmark
 0–90° to the left for the left eye, 0–90° to the right for the right eye, within ±45° for both.
 A monocular ant keeps the landmark where its one eye looks (30° to that side), so its path bows
 to the other side; the binocular ant keeps it ahead.

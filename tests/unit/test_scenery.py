@@ -22,7 +22,7 @@ def test_the_landmark_is_a_black_cylinder_standing_on_the_ground():
     mark = landmark()
     assert mark.shape == "cylinder" and mark.rgba[:3] == (0.0, 0.0, 0.0)
     assert mark.position_m[:2] == (0.0, 25.0) and bottom_m(mark) == 0.0
-    assert mark.size_m == (1.0, 3.0)  # radius 1 m, 6 m tall (parameters.md §3)
+    assert mark.size_m == (1.0, 3.0)  # radius 1 m, 6 m tall (I2Bot §3.3.4; docs/parameters.md §7)
     other = landmark((3.0, -4.0), radius_m=0.5, height_m=2.0)
     assert other.position_m == (3.0, -4.0, 1.0) and other.size_m == (0.5, 1.0)
 
