@@ -1,0 +1,295 @@
+"""Engine-free navigation tasks: what the learning environments (Gymnasium, dm_control) share.
+
+A task says what an episode is; an adapter (:mod:`scenarios.envs.gym_env`, the dm_control tasks)
+only runs it on a backend, so a reward is written once. Each task wraps one scenario's settings
+(its config dataclass, validated by :func:`neuronav.config.build_config`: the same keys as
+``neuronav run ... --set``) and reuses that scenario's world:
+
+==========  ==========================================  ==========================  ==================
+task        world and start                             goal (reward: progress)     success radius
+==========  ==========================================  ==========================  ==================
+``homing``  the embodied homing floor; the ant starts   the nest at (0, 0)          ``nest_radius_m``
+            where a seeded foraging walk ended
+``beacon``  the visual beacon's landmark and forest     the landmark (0, d)         ``success_radius_m``
+            (:func:`scenarios.visual_beacon.beacon_world`)
+``plume``   the plume-tracking arena and plume          the odour source            ``success_radius_m``
+            (:func:`scenarios.plume_tracking.plume_world`)
+==========  ==========================================  ==========================  ==================
+
+The API, all a task offers:
+
+- ``task.world(seed=0)`` -> :class:`~neuronav.world.World` (only the beacon's forest depends on the seed);
+- ``task.start(seed)`` -> :class:`Start` (position (2,) m, heading rad clockwise from +y), the same
+  for the same seed;
+- ``task.goal_m`` (2,) m; ``task.success_radius_m``; ``task.time_limit_s`` (the scenario's timeout);
+- ``task.observation_ports``: the backend sensors an agent observes; ``task.task_sensors``: the
+  :class:`~neuronav.ports.SensorSpec` of observations the task computes itself (``observe``);
+- ``task.state_ports``: every sensor the task reads (``position`` and ``heading`` first);
+- ``read_state(backend, task)`` -> the state: ``{port: reading}`` of agent 0, batch dimension removed;
+- ``task.observe(state)`` -> the task's own observations (e.g. the homing vector);
+- ``task.reward(prev_state, state)``: progress toward the goal in m (distance before minus after);
+- ``task.terminated(state)``: the goal is reached (the body, or for the plume an antenna tip,
+  within ``success_radius_m``);
+- ``task.step_limit(step_s)``: how many steps of ``step_s`` fit in ``time_limit_s`` (an episode
+  that reaches it is truncated, not terminated).
+
+``make_task(name, **settings)`` builds a task by name (:data:`TASKS`) with its scenario's settings.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from backends.kinematic import default_calibration
+from neuronav.config import build_config
+from neuronav.errors import ConfigError
+from neuronav.ports import SensorSpec
+from neuronav.world import Ground, World
+from scenarios.embodied_homing import CONTROL_S, CYCLE_S
+from scenarios.path_integration import PathIntegrationConfig
+from scenarios.plume_tracking import PlumeTrackingConfig, plume_world, start_pose
+from scenarios.visual_beacon import START_HEADINGS_RAD, VisualBeaconConfig, beacon_world
+
+# The embodied homing scenario's floor (scenarios.embodied_homing.embodied_trial).
+HOMING_FLOOR_M = 80.0
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where an episode starts: ``position_m`` (2,) and ``heading_rad`` (clockwise from +y)."""
+
+    position_m: np.ndarray
+    heading_rad: float
+
+
+def forward_left(heading_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """The body's forward (sin h, cos h) and left (-cos h, sin h) unit vectors in the world's xy plane."""
+    return np.array([np.sin(heading_rad), np.cos(heading_rad)]), np.array([-np.cos(heading_rad), np.sin(heading_rad)])
+
+
+class NavigationTask:
+    """Walk to a goal: the reward is the progress toward it, success within ``success_radius_m``.
+
+    Subclasses set ``name``, ``config_type``, ``observation_ports`` and implement ``world``, ``start``,
+    ``goal_m``, ``success_radius_m`` and ``time_limit_s``.
+    """
+
+    name: ClassVar[str]
+    config_type: ClassVar[type]
+    observation_ports: ClassVar[tuple[str, ...]]
+    task_sensors: ClassVar[tuple[SensorSpec, ...]] = ()
+
+    def __init__(self, **settings: Any) -> None:
+        self.config = build_config(self.config_type, settings)
+
+    # -- what subclasses define -----------------------------------------------------------------
+    def world(self, seed: int = 0) -> World:
+        raise NotImplementedError
+
+    def start(self, seed: int) -> Start:
+        raise NotImplementedError
+
+    goal_m: np.ndarray
+    success_radius_m: float
+    time_limit_s: float
+
+    # -- shared ---------------------------------------------------------------------------------
+    @property
+    def state_ports(self) -> tuple[str, ...]:
+        """Every backend sensor the task reads: position and heading, then the observed ports."""
+        extra = tuple(p for p in self.observation_ports if p not in ("position", "heading"))
+        return ("position", "heading", *extra)
+
+    def observe(self, state: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The task's own observations (named as in ``task_sensors``); none by default."""
+        return {}
+
+    def distance_m(self, state: dict[str, np.ndarray]) -> float:
+        """The body's (root's) distance to the goal in the ground plane."""
+        return float(np.hypot(*(np.asarray(state["position"], float) - self.goal_m)))
+
+    def reach_distance_m(self, state: dict[str, np.ndarray]) -> float:
+        """The distance that decides success (the root's, unless a task says otherwise)."""
+        return self.distance_m(state)
+
+    def reward(self, prev_state: dict[str, np.ndarray], state: dict[str, np.ndarray]) -> float:
+        """Progress toward the goal (m): the distance before the step minus the distance after."""
+        return self.distance_m(prev_state) - self.distance_m(state)
+
+    def terminated(self, state: dict[str, np.ndarray]) -> bool:
+        """Whether the goal is reached."""
+        return bool(self.reach_distance_m(state) <= self.success_radius_m)
+
+    def step_limit(self, step_s: float) -> int:
+        """Steps of ``step_s`` in ``time_limit_s`` (rounded up): the episode's length before truncation."""
+        if not (np.isfinite(step_s) and step_s > 0):
+            raise ConfigError(f"task {self.name!r}: step_s must be positive and finite, got {step_s!r}")
+        return max(1, math.ceil(self.time_limit_s / step_s - 1e-9))
+
+
+def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: float) -> tuple[np.ndarray, float]:
+    """The end of embodied homing's foraging walk, engine-free: (position (2,) m, heading rad).
+
+    The same walk as :class:`scenarios.embodied_homing.HomingBrain` commands (from the nest, heading
+    uniform in [0, 2π), a turn command ``0.7 turn + N(0, turn_std)`` per gait cycle at a fixed
+    stride), moved as the kinematic unicycle moves (its calibration's speed and turn rate, 8 ms steps).
+    """
+    calibration = default_calibration()
+    rng = np.random.default_rng([seed, 3])
+    heading = float(rng.uniform(0.0, 2.0 * np.pi))
+    stride = float(np.clip(stride_rad, 0.0, calibration.stride_rad[-1]))
+    from scipy.interpolate import RegularGridInterpolator
+
+    grid = (calibration.turn, calibration.stride_rad)
+    speed = RegularGridInterpolator(grid, calibration.speed_m_s, bounds_error=False, fill_value=None)
+    rate = RegularGridInterpolator(grid, calibration.turn_rate_rad_s, bounds_error=False, fill_value=None)
+    position, turn = np.zeros(2), 0.0
+    steps_per_cycle = int(round(CYCLE_S / CONTROL_S))
+    cycles = int(math.ceil(outbound_s / CYCLE_S - 1e-9))
+    walk_rng = np.random.default_rng([seed, 2])
+    for _ in range(cycles):
+        turn = float(np.clip(0.7 * turn + walk_rng.normal(0.0, turn_std), -1.0, 1.0))
+        query = np.array([[turn, stride]])
+        v_m_s, w_rad_s = float(speed(query)[0]), float(rate(query)[0])
+        # Each control step turns, then moves along the new heading (the kinematic backend's order).
+        headings = heading + w_rad_s * CONTROL_S * np.arange(1, steps_per_cycle + 1)
+        position = position + v_m_s * CONTROL_S * np.array([np.sin(headings).sum(), np.cos(headings).sum()])
+        heading = float(headings[-1])
+    return position, float(np.mod(heading, 2.0 * np.pi))
+
+
+class HomingTask(NavigationTask):
+    """Walk home from where a foraging walk ended, knowing the home vector (a perfect path integrator).
+
+    Settings: the path-integration scenario's embodied (``i2bot``) keys: ``outbound_s``,
+    ``foraging_turn_std``, ``foraging_stride_deg``, ``nest_radius_m``, ``homing_timeout_s``.
+    Observation ``home_vector`` (2,) m: the nest from the body, in the body's frame (forward, left).
+    """
+
+    name = "homing"
+    config_type = PathIntegrationConfig
+    observation_ports = ("heading", "velocity")
+    task_sensors = (SensorSpec("home_vector", (2,), "m"),)
+
+    @property
+    def goal_m(self) -> np.ndarray:
+        return np.zeros(2)
+
+    @property
+    def success_radius_m(self) -> float:
+        return float(self.config.nest_radius_m)
+
+    @property
+    def time_limit_s(self) -> float:
+        return float(self.config.homing_timeout_s)
+
+    def world(self, seed: int = 0) -> World:
+        return World(ground=Ground(size_m=HOMING_FLOOR_M))
+
+    def start(self, seed: int) -> Start:
+        position, heading = foraging_walk(seed, self.config.outbound_s, self.config.foraging_turn_std,
+                                          np.radians(self.config.foraging_stride_deg))
+        return Start(position, heading)
+
+    def observe(self, state: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        forward, left = forward_left(float(np.asarray(state["heading"]).reshape(-1)[0]))
+        home = self.goal_m - np.asarray(state["position"], float)
+        return {"home_vector": np.array([home @ forward, home @ left])}
+
+
+class BeaconTask(NavigationTask):
+    """Walk to the visual beacon's dark landmark, seen with both eyes.
+
+    Settings: the visual-beacon scenario's keys (``landmark_distance_m``, ``trees``,
+    ``success_radius_m``, ``timeout_s``, ...). The start: the origin, heading within ±45° of the
+    landmark (the scenario's binocular range), drawn as the scenario draws it.
+    """
+
+    name = "beacon"
+    config_type = VisualBeaconConfig
+    observation_ports = ("heading", "eye_L", "eye_R")
+
+    @property
+    def goal_m(self) -> np.ndarray:
+        return np.array([0.0, self.config.landmark_distance_m])
+
+    @property
+    def success_radius_m(self) -> float:
+        return float(self.config.success_radius_m)
+
+    @property
+    def time_limit_s(self) -> float:
+        return float(self.config.timeout_s)
+
+    def world(self, seed: int = 0) -> World:
+        return beacon_world(self.config, seed)
+
+    def start(self, seed: int) -> Start:
+        rng = np.random.default_rng([seed, 4])  # as scenarios.visual_beacon.beacon_trial draws it
+        return Start(np.zeros(2), float(rng.uniform(*START_HEADINGS_RAD["both"])))
+
+
+class PlumeTask(NavigationTask):
+    """Walk up the plume to its source, smelling with the antennae and feeling the wind.
+
+    Settings: the plume-tracking scenario's keys (``wind_mps``, ``source_x_m``, ``warmup_s``,
+    ``start_x_m``, ``start_lateral_m``, ``start_heading_deg``, ``success_radius_m``, ``timeout_s``,
+    ...). Success as in the scenario: the root or an antenna tip within ``success_radius_m``.
+    """
+
+    name = "plume"
+    config_type = PlumeTrackingConfig
+    observation_ports = ("heading", "odour", "wind")
+
+    @property
+    def state_ports(self) -> tuple[str, ...]:
+        return (*super().state_ports, "odour_sites")
+
+    @property
+    def goal_m(self) -> np.ndarray:
+        return np.array([self.config.source_x_m, 0.0])
+
+    @property
+    def success_radius_m(self) -> float:
+        return float(self.config.success_radius_m)
+
+    @property
+    def time_limit_s(self) -> float:
+        return float(self.config.timeout_s)
+
+    def world(self, seed: int = 0) -> World:
+        return plume_world(self.config)
+
+    def start(self, seed: int) -> Start:
+        position, heading = start_pose(self.config, seed)
+        return Start(position, heading)
+
+    def reach_distance_m(self, state: dict[str, np.ndarray]) -> float:
+        points = np.vstack([np.asarray(state["position"], float)[None, :2],
+                            np.asarray(state["odour_sites"], float)[:, :2]])
+        return float(np.hypot(*(points - self.goal_m).T).min())
+
+
+TASKS: dict[str, type[NavigationTask]] = {task.name: task for task in (HomingTask, BeaconTask, PlumeTask)}
+
+
+def make_task(name: str, **settings: Any) -> NavigationTask:
+    """The task ``name`` (one of :data:`TASKS`) with its scenario's settings overridden by ``settings``.
+
+    Raises
+    ------
+    ConfigError
+        An unknown task, or a setting its scenario does not have or does not allow.
+    """
+    if name not in TASKS:
+        raise ConfigError(f"unknown task {name!r}; allowed: {', '.join(TASKS)}")
+    return TASKS[name](**settings)
+
+
+def read_state(backend, task: NavigationTask) -> dict[str, np.ndarray]:
+    """Agent 0's readings of ``task.state_ports`` from a loaded backend, without the batch dimension."""
+    return {name: np.asarray(value)[0] for name, value in backend.read(task.state_ports).items()}
