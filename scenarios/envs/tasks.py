@@ -9,7 +9,8 @@ only runs it on a backend, so a reward is written once. Each task wraps one scen
 task        world and start                             goal (reward: progress)     success radius
 ==========  ==========================================  ==========================  ==================
 ``homing``  the embodied homing floor; the ant starts   the nest at (0, 0)          ``nest_radius_m``
-            where a seeded foraging walk ended
+            where a seeded foraging walk ended (at
+            least 3 nest radii from the nest)
 ``beacon``  the visual beacon's landmark and forest     the landmark (0, d)         ``success_radius_m``
             (:func:`scenarios.visual_beacon.beacon_world`)
 ``plume``   the plume-tracking arena and plume          the odour source            ``success_radius_m``
@@ -22,6 +23,8 @@ The API, all a task offers:
 - ``task.start(seed)`` -> :class:`Start` (position (2,) m, heading rad clockwise from +y), the same
   for the same seed;
 - ``task.goal_m`` (2,) m; ``task.success_radius_m``; ``task.time_limit_s`` (the scenario's timeout);
+- ``task.backends``: the backends its scenario runs on; ``task.physics_timestep_s``: the scenario's
+  physics step of the ant on a physics backend;
 - ``task.observation_ports``: the backend sensors an agent observes; ``task.task_sensors``: the
   :class:`~neuronav.ports.SensorSpec` of observations the task computes itself (``observe``);
 - ``task.state_ports``: every sensor the task reads (``position`` and ``heading`` first);
@@ -50,12 +53,16 @@ from neuronav.errors import ConfigError
 from neuronav.ports import SensorSpec
 from neuronav.world import Ground, World
 from scenarios.embodied_homing import CONTROL_S, CYCLE_S
-from scenarios.path_integration import PathIntegrationConfig
-from scenarios.plume_tracking import PlumeTrackingConfig, plume_world, start_pose
-from scenarios.visual_beacon import START_HEADINGS_RAD, VisualBeaconConfig, beacon_world
+from scenarios.path_integration import PathIntegration, PathIntegrationConfig
+from scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_world, start_pose
+from scenarios.visual_beacon import START_HEADINGS_RAD, VisualBeacon, VisualBeaconConfig, beacon_world
 
 # The embodied homing scenario's floor (scenarios.embodied_homing.embodied_trial).
 HOMING_FLOOR_M = 80.0
+# A homing episode starts at least this many nest radii from the nest (else it would start home).
+MIN_START_RADII = 3.0
+# Foraging walks drawn at the most to find such a start.
+MAX_WALKS = 100
 
 
 @dataclass(frozen=True)
@@ -74,17 +81,29 @@ def forward_left(heading_rad: float) -> tuple[np.ndarray, np.ndarray]:
 class NavigationTask:
     """Walk to a goal: the reward is the progress toward it, success within ``success_radius_m``.
 
-    Subclasses set ``name``, ``config_type``, ``observation_ports`` and implement ``world``, ``start``,
-    ``goal_m``, ``success_radius_m`` and ``time_limit_s``.
+    Subclasses set ``name``, ``scenario`` (the scenario class whose settings and backends the task
+    takes), ``observation_ports`` and implement ``world``, ``start``, ``goal_m``,
+    ``success_radius_m`` and ``time_limit_s``.
     """
 
     name: ClassVar[str]
-    config_type: ClassVar[type]
+    scenario: ClassVar[type]
+    config_type: ClassVar[type]  # the scenario's config dataclass
     observation_ports: ClassVar[tuple[str, ...]]
     task_sensors: ClassVar[tuple[SensorSpec, ...]] = ()
 
     def __init__(self, **settings: Any) -> None:
         self.config = build_config(self.config_type, settings)
+
+    @property
+    def backends(self) -> tuple[str, ...]:
+        """The backends the task's scenario runs on."""
+        return tuple(self.scenario.backends)
+
+    @property
+    def physics_timestep_s(self) -> float:
+        """The scenario's physics step of the ant (s) on a physics backend."""
+        return float(self.config.timestep_s)
 
     # -- what subclasses define -----------------------------------------------------------------
     def world(self, seed: int = 0) -> World:
@@ -131,15 +150,18 @@ class NavigationTask:
         return max(1, math.ceil(self.time_limit_s / step_s - 1e-9))
 
 
-def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: float) -> tuple[np.ndarray, float]:
+def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: float,
+                  attempt: int = 0) -> tuple[np.ndarray, float]:
     """The end of embodied homing's foraging walk, engine-free: (position (2,) m, heading rad).
 
     The same walk as :class:`scenarios.embodied_homing.HomingBrain` commands (from the nest, heading
     uniform in [0, 2π), a turn command ``0.7 turn + N(0, turn_std)`` per gait cycle at a fixed
     stride), moved as the kinematic unicycle moves (its calibration's speed and turn rate, 8 ms steps).
+    ``attempt`` 0 draws trial ``seed``'s walk as the scenario does; other attempts draw other walks.
     """
     calibration = default_calibration()
-    rng = np.random.default_rng([seed, 3])
+    streams = [] if attempt == 0 else [attempt]
+    rng = np.random.default_rng([seed, 3, *streams])
     heading = float(rng.uniform(0.0, 2.0 * np.pi))
     stride = float(np.clip(stride_rad, 0.0, calibration.stride_rad[-1]))
     from scipy.interpolate import RegularGridInterpolator
@@ -150,7 +172,7 @@ def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: flo
     position, turn = np.zeros(2), 0.0
     steps_per_cycle = int(round(CYCLE_S / CONTROL_S))
     cycles = int(math.ceil(outbound_s / CYCLE_S - 1e-9))
-    walk_rng = np.random.default_rng([seed, 2])
+    walk_rng = np.random.default_rng([seed, 2, *streams])
     for _ in range(cycles):
         turn = float(np.clip(0.7 * turn + walk_rng.normal(0.0, turn_std), -1.0, 1.0))
         query = np.array([[turn, stride]])
@@ -171,6 +193,7 @@ class HomingTask(NavigationTask):
     """
 
     name = "homing"
+    scenario = PathIntegration
     config_type = PathIntegrationConfig
     observation_ports = ("heading", "velocity")
     task_sensors = (SensorSpec("home_vector", (2,), "m"),)
@@ -187,12 +210,25 @@ class HomingTask(NavigationTask):
     def time_limit_s(self) -> float:
         return float(self.config.homing_timeout_s)
 
+    @property
+    def physics_timestep_s(self) -> float:
+        return float(self.config.embodied_timestep_s)
+
     def world(self, seed: int = 0) -> World:
         return World(ground=Ground(size_m=HOMING_FLOOR_M))
 
     def start(self, seed: int) -> Start:
-        position, heading = foraging_walk(seed, self.config.outbound_s, self.config.foraging_turn_std,
-                                          np.radians(self.config.foraging_stride_deg))
+        """The end of trial ``seed``'s foraging walk; a walk that ends within ``MIN_START_RADII`` nest
+        radii of the nest (15 % of walks at the defaults) is replaced by the next attempt's."""
+        for attempt in range(MAX_WALKS):
+            position, heading = foraging_walk(seed, self.config.outbound_s, self.config.foraging_turn_std,
+                                              np.radians(self.config.foraging_stride_deg), attempt)
+            if np.hypot(*position) >= MIN_START_RADII * self.config.nest_radius_m:
+                break
+        else:
+            raise ConfigError(f"homing: no foraging walk of {MAX_WALKS} ended {MIN_START_RADII} nest radii "
+                              f"({MIN_START_RADII * self.config.nest_radius_m:g} m) from the nest; lengthen "
+                              f"outbound_s ({self.config.outbound_s:g} s) or shrink nest_radius_m")
         return Start(position, heading)
 
     def observe(self, state: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -210,6 +246,7 @@ class BeaconTask(NavigationTask):
     """
 
     name = "beacon"
+    scenario = VisualBeacon
     config_type = VisualBeaconConfig
     observation_ports = ("heading", "eye_L", "eye_R")
 
@@ -242,6 +279,7 @@ class PlumeTask(NavigationTask):
     """
 
     name = "plume"
+    scenario = PlumeTracking
     config_type = PlumeTrackingConfig
     observation_ports = ("heading", "odour", "wind")
 

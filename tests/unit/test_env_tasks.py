@@ -6,15 +6,15 @@ import pytest
 from backends.kinematic import KinematicBackend
 from neuronav.errors import ConfigError
 from neuronav.world import PointAgents
-from scenarios.envs.tasks import TASKS, make_task, read_state
+from scenarios.envs.tasks import MIN_START_RADII, TASKS, foraging_walk, make_task, read_state
 from scenarios.plume_tracking import start_pose
 
 
 def test_foraging_walk_ends_where_the_kinematic_unicycle_ends():
     """The homing start is the end of the scenario's foraging walk on the kinematic unicycle (the reference)."""
     task = make_task("homing", outbound_s=6.4)
-    start = task.start(7)
     cfg = task.config
+    position, heading = foraging_walk(7, 6.4, cfg.foraging_turn_std, np.radians(cfg.foraging_stride_deg))
     engine = KinematicBackend(timestep_s=0.008)
     engine.load(task.world(), [PointAgents(count=1, mode="unicycle")])
     heading0 = np.random.default_rng([7, 3]).uniform(0.0, 2.0 * np.pi)
@@ -25,9 +25,20 @@ def test_foraging_walk_ends_where_the_kinematic_unicycle_ends():
         engine.write({"turn": np.array([[turn]]), "stride": np.array([[np.radians(cfg.foraging_stride_deg)]])})
         engine.step(80)
     state = engine.read(("position", "heading"))
-    np.testing.assert_allclose(start.position_m, state["position"][0], atol=1e-9)
-    assert np.isclose(np.mod(state["heading"][0, 0], 2 * np.pi), start.heading_rad, atol=1e-9)
-    assert np.hypot(*start.position_m) > 0.5  # it did walk away from the nest
+    np.testing.assert_allclose(position, state["position"][0], atol=1e-9)
+    assert np.isclose(np.mod(state["heading"][0, 0], 2 * np.pi), heading, atol=1e-9)
+    assert np.hypot(*position) > 0.5  # it did walk away from the nest
+
+
+def test_homing_never_starts_at_home():
+    task = make_task("homing")
+    distances = np.array([np.hypot(*task.start(seed).position_m) for seed in range(40)])
+    assert distances.min() >= MIN_START_RADII * task.config.nest_radius_m
+    # Most starts are the scenario's own walk (attempt 0), unchanged.
+    first = [np.hypot(*foraging_walk(seed, 32.0, 0.35, np.radians(15.0))[0]) for seed in range(40)]
+    assert np.sum(np.isclose(distances, first)) >= 25
+    with pytest.raises(ConfigError, match="lengthen outbound_s"):
+        make_task("homing", outbound_s=0.64).start(0)
 
 
 def test_starts_repeat_under_a_seed_and_differ_between_seeds():
