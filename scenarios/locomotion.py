@@ -56,6 +56,7 @@ from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.video import VideoRecorder
 from neuronav.world import Ground, World
+from scenarios import PHYSICS_BACKENDS
 
 TERRAINS = {
     "flat": dict(kind="flat"),
@@ -156,7 +157,7 @@ class Locomotion(Scenario):
     name = "locomotion"
     description = "the desert ant walks: FK/IK gaits, turning, uneven ground, wall climbing (paper §2.2)"
     config_type = LocomotionConfig
-    backends = ("mujoco", "pybullet")
+    backends = PHYSICS_BACKENDS
     default_backend = "mujoco"
     records_video = True
     timing_metrics = ("gait_us_per_step", "real_time_factor")

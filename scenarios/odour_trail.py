@@ -68,6 +68,7 @@ from neuronav.odour import TRAIL_WIDTHS_M, PolylineTrail
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import vision_appearance
 from neuronav.world import Ground, World
+from scenarios import EVERY_BACKEND
 from scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
@@ -234,7 +235,7 @@ class OdourTrail(Scenario):
     name = "odour-trail"
     description = "follow an odour trail on the floor with fixed or sweeping antennae: Table 3 control (paper §2.5.1)"
     config_type = OdourTrailConfig
-    backends = ("kinematic", "mujoco", "pybullet")
+    backends = EVERY_BACKEND
     default_backend = "kinematic"
     records_video = True
     timing_metrics = ("real_time_factor",)

@@ -26,6 +26,7 @@ from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.world import PointAgents, World
+from scenarios import EVERY_BACKEND
 
 
 @dataclass
@@ -90,7 +91,7 @@ class PathIntegration(Scenario):
     name = "path-integration"
     description = "CX path integration (Stone et al. 2017): random outbound route, then the CX steers home"
     config_type = PathIntegrationConfig
-    backends = ("kinematic", "mujoco", "pybullet")
+    backends = EVERY_BACKEND
     default_backend = "kinematic"
     timing_metrics = ("real_time_factor",)
     # Undefined (NaN) in some trials by definition: an agent that never comes within the success

@@ -66,6 +66,7 @@ from neuronav.plume import OdourSource, PlumeConfig, WindConfig
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.video import VideoRecorder
 from neuronav.world import World
+from scenarios import EVERY_BACKEND
 from scenarios.trial_loop import VIDEO_EVERY, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
@@ -236,7 +237,7 @@ class PlumeTracking(Scenario):
     description = ("walk up a turbulent filament plume to its source: eq. 3.11 upwind turns when odour is "
                    "sensed, random turns on the spot when not (paper §2.5.2)")
     config_type = PlumeTrackingConfig
-    backends = ("kinematic", "mujoco", "pybullet")
+    backends = EVERY_BACKEND
     default_backend = "kinematic"
     records_video = True
     timing_metrics = ("real_time_factor",)

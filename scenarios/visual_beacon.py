@@ -32,6 +32,7 @@ from neuronav.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import forest, landmark, vision_appearance
 from neuronav.world import Ground, World
+from scenarios import EVERY_BACKEND
 from scenarios.embodied_homing import steering_command
 from scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
@@ -164,7 +165,7 @@ class VisualBeacon(Scenario):
     name = "visual-beacon"
     description = "walk to a dark landmark seen by the left, right or both eyes: copy-and-shift steering (paper §2.4.1)"
     config_type = VisualBeaconConfig
-    backends = ("kinematic", "mujoco", "pybullet")
+    backends = EVERY_BACKEND
     default_backend = "kinematic"
     records_video = True
     timing_metrics = ("real_time_factor",)

@@ -26,6 +26,7 @@ from neuronav.config import field
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import compass_scene
+from scenarios import EVERY_BACKEND
 from scenarios.trial_loop import run_loop, trials_one_by_one
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
@@ -158,7 +159,7 @@ class VisualCompass(Scenario):
     name = "visual-compass"
     description = "keep facing the stored direction by the panorama's Zernike phase while the world turns (§2.4.2)"
     config_type = VisualCompassConfig
-    backends = ("kinematic", "mujoco", "pybullet")
+    backends = EVERY_BACKEND
     default_backend = "kinematic"
     records_video = True
     timing_metrics = ("real_time_factor",)

@@ -165,13 +165,7 @@ class MujocoBackend(ArticulatedBackend):
         fatal_seen = self._seen[_FATAL_INDEX]
         forces = bool(self._pending) or self._adhesion_n > 0
         try:
-            for _ in range(n):
-                if forces:
-                    self._external_forces(model, data)
-                mujoco.mj_step2(model, data)
-                mujoco.mj_step1(model, data)
-                if (data.warning.number[_FATAL_INDEX] > fatal_seen).any():
-                    break  # MuJoCo has already reset the state; stop and report
+            self._advance(model, data, n, forces, fatal_seen)
         finally:
             if forces:
                 data.xfrc_applied[:] = 0.0
@@ -180,6 +174,20 @@ class MujocoBackend(ArticulatedBackend):
             self._torque = data.actuator_force.copy()
             self._forces_current = False
         self._check(data)
+
+    def _advance(self, model: mujoco.MjModel, data: mujoco.MjData, n: int, forces: bool,
+                 fatal_seen: np.ndarray) -> None:
+        """:meth:`step`'s physics steps: each ``mj_step2`` then ``mj_step1``, adhesion and pending forces first.
+
+        A subclass may advance the same model another way (the dm_control backend steps its ``Physics``).
+        """
+        for _ in range(n):
+            if forces:
+                self._external_forces(model, data)
+            mujoco.mj_step2(model, data)
+            mujoco.mj_step1(model, data)
+            if (data.warning.number[_FATAL_INDEX] > fatal_seen).any():
+                break  # MuJoCo has already reset the state; stop and report
 
     def model_summary(self) -> dict:
         """What MuJoCo compiled, read back from the model: for comparing backends on one spec.

@@ -1,0 +1,96 @@
+"""The dm_control backend: the MuJoCo backend's model in a dm_control ``Physics``, stepped by ``Physics.step``."""
+
+import numpy as np
+import pytest
+
+from neuronav import registry
+from neuronav.errors import ConfigError, SimulationError
+from neuronav.trials import run_trials
+from neuronav.world import World
+
+pytest.importorskip("dm_control", reason="dm_control is not installed")
+from dm_control import mujoco as dm_mujoco  # noqa: E402
+
+from backends.dm_control import DmControlBackend  # noqa: E402
+from backends.mujoco import MujocoBackend  # noqa: E402
+from bodies.desert_ant import desert_ant  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def ant():
+    return desert_ant()
+
+
+def loaded(cls, ant):
+    backend = cls()
+    backend.load(World(), [ant])
+    backend.reset(seed=0)
+    return backend
+
+
+def test_registered_under_its_name_and_accepted_where_mujoco_is():
+    assert registry.load("backend", "dm_control") is DmControlBackend
+    for name in registry.names("scenario"):
+        scenario = registry.load("scenario", name)
+        if "mujoco" in scenario.backends:
+            assert "dm_control" in scenario.backends, name
+
+
+def test_physics_wraps_the_same_model_as_the_mujoco_backend(ant):
+    dm, mj = loaded(DmControlBackend, ant), loaded(MujocoBackend, ant)
+    assert isinstance(dm.physics, dm_mujoco.Physics)
+    assert dm.physics.model.ptr is dm.model and dm.physics.data.ptr is dm.data
+    for field in ("body_mass", "body_inertia", "body_pos", "body_quat", "geom_size", "jnt_range",
+                  "dof_damping", "actuator_gainprm", "actuator_biasprm"):
+        np.testing.assert_array_equal(getattr(dm.model, field), getattr(mj.model, field), err_msg=field)
+    assert dm.physics.timestep() == mj.model.opt.timestep == 0.002
+    # dm_control's named views see the backend's state: the joints it reports.
+    joints = dm.read(["joint_pos"])["joint_pos"][0]
+    named = [dm.physics.named.data.qpos[name] for name in dm.names.joints]
+    np.testing.assert_array_equal(np.concatenate(named), joints)
+
+
+def test_steps_go_through_physics_step_and_match_mujoco(ant, monkeypatch):
+    dm, mj = loaded(DmControlBackend, ant), loaded(MujocoBackend, ant)
+    calls = []
+    original = dm.physics.step
+    monkeypatch.setattr(dm.physics, "step", lambda n=1: (calls.append(n), original(n)))
+    targets = ant.rest_pose_rad() + 0.2
+    for backend in (dm, mj):
+        backend.write({"joint_targets": targets[None, :]})
+        backend.step(25)
+    assert calls == [25]  # no external force: all steps in one Physics.step
+    assert dm.time == pytest.approx(25 * 0.002)
+    names = ["joint_pos", "joint_torque", "position", "heading", "contact_force"]
+    got, want = dm.read(names), mj.read(names)
+    for name in names:
+        np.testing.assert_array_equal(got[name], want[name], err_msg=name)
+    dm.apply_force(0, dm.body.root.name, [0.0, 0.0, 5.0])
+    dm.step(3)
+    assert calls == [25, 1, 1, 1]  # a pending force: one Physics.step per physics step, the force each time
+
+
+def test_a_diverged_state_is_a_simulation_error_as_on_mujoco(ant):
+    dm = loaded(DmControlBackend, ant)
+    dm.data.qvel[:] = np.nan
+    with pytest.raises(SimulationError, match="diverged"):
+        dm.step(1)
+    with pytest.raises(SimulationError, match="call reset"):
+        dm.step(1)
+    dm.reset(seed=0)
+    dm.step(1)  # a reset recovers
+    assert np.isfinite(dm.data.qpos).all()
+
+
+def test_bad_timestep_names_the_backend():
+    with pytest.raises(ConfigError, match="dm_control backend: timestep_s"):
+        DmControlBackend(timestep_s=-1.0)
+
+
+def test_locomotion_runs_on_dm_control_and_repeats_under_its_seed():
+    scenario = registry.load("scenario", "locomotion")
+    config = scenario.config_type(duration_s=0.1)
+    first = run_trials(scenario(), config, "dm_control", trials=1, seed=2)
+    second = run_trials(scenario(), config, "dm_control", trials=1, seed=2)
+    assert first.trials[0]["status"] == "ok", first.trials[0]["error"]
+    assert first.trials[0]["forward_speed_m_s"] == second.trials[0]["forward_speed_m_s"]
