@@ -7,7 +7,8 @@ For each installed physics backend and each gait, on flat ground without renderi
   scenario reads), and its real-time factor (simulated seconds per wall second);
 - raw throughput: the engine's own step on the same compiled model over the same simulated time,
   no Python in the loop, no reads: ``mj_step`` replaying the same walk's joint targets for MuJoCo
-  (its actuators are the control law), ``stepSimulation`` with no control for PyBullet (whose
+  (its actuators are the control law), dm_control's ``Physics.step`` replaying them for dm_control
+  (the same model, stepped through dm_control), ``stepSimulation`` with no control for PyBullet (whose
   control law is Python), as many calls as the loop makes: ``substeps`` per physics step (the
   PyBullet backend runs 3 PyBullet steps per 2 ms for the desert ant, for stable explicit joint
   control; before this benchmark counted them, its raw side stepped a third of the simulated time
@@ -21,7 +22,7 @@ Targets (issue 3): MuJoCo real-time factor >= 20x, loop throughput >= 0.5x raw `
 
 Usage::
 
-    python benchmarks/locomotion_speed.py [--seconds 2.0] [--repeats 3] [--backends mujoco,pybullet]
+    python benchmarks/locomotion_speed.py [--seconds 2.0] [--repeats 3] [--backends mujoco,dm_control,pybullet]
         [--gaits tripod,ripple,wave,ik]
 """
 
@@ -76,7 +77,7 @@ def loop_rate(backend_name: str, gait_name: str, seconds: float, repeats: int = 
         speed = (engine.read(["body_pos"])["body_pos"][0, 0] - start_x) / seconds
         # Raw: the same walk replayed through the engine's own step alone. MuJoCo's actuators take
         # the targets directly; PyBullet's control law lives in Python, so its raw steps run free.
-        takes_targets = backend_name == "mujoco"
+        takes_targets = backend_name in ("mujoco", "dm_control")
         engine_steps = PHYSICS_PER_CONTROL * getattr(engine, "substeps", 1)  # engine calls per control step
         raw_s = np.inf
         for _ in range(repeats):
@@ -94,7 +95,7 @@ def loop_rate(backend_name: str, gait_name: str, seconds: float, repeats: int = 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0, help="simulated seconds per measurement")
-    parser.add_argument("--backends", default="mujoco,pybullet")
+    parser.add_argument("--backends", default="mujoco,dm_control,pybullet")
     parser.add_argument("--gaits", default="tripod,ripple,wave,ik")
     parser.add_argument("--repeats", type=int, default=3, help="best of this many runs")
     args = parser.parse_args(argv)

@@ -81,7 +81,22 @@ class DmControlBackend(MujocoBackend):
                 break  # MuJoCo has already reset the state; stop and report
 
     def _physics_step(self, n: int) -> None:
+        if n <= 0:
+            return  # (dm_control's step(0) would still take one step)
         try:
             self.physics.step(n)
         except PhysicsError:
             pass  # the MuJoCo backend's check (in step) sorts the warnings: fatal or only recorded
+
+    def raw_step(self, n: int = 1, targets: np.ndarray | None = None) -> None:
+        """``Physics.step(n)`` and nothing else (no adhesion, no checks): for benchmarks.
+
+        The actuators hold ``targets`` (J,) when given, else the last targets, as in
+        :meth:`MujocoBackend.raw_step`; dm_control's step leaves poses and contacts up to date.
+        """
+        model, data = self._require_model()
+        if targets is not None:
+            data.ctrl[:] = targets
+        self._physics_step(int(n))
+        self._torque = data.actuator_force.copy()
+        self._forces_current = False

@@ -60,6 +60,8 @@ def test_steps_go_through_physics_step_and_match_mujoco(ant, monkeypatch):
         backend.write({"joint_targets": targets[None, :]})
         backend.step(25)
     assert calls == [25]  # no external force: all steps in one Physics.step
+    dm.step(0)
+    assert dm.time == pytest.approx(25 * 0.002)  # zero steps are none (dm_control's step(0) takes one)
     assert dm.time == pytest.approx(25 * 0.002)
     names = ["joint_pos", "joint_torque", "position", "heading", "contact_force"]
     got, want = dm.read(names), mj.read(names)
