@@ -1,0 +1,192 @@
+"""The cue-integration brain: path integration and visual homing as two cues into the ring attractor.
+
+Once per gait cycle (0.64 s), for a batch of agents:
+
+1. The CX (:func:`brains.cx.stone2017`, the embodied settings of ``path-integration``'s i2bot protocol)
+   integrates the cycle's displacement; its CPU4 memory decodes (:func:`brains.cx.decode_home_vector`)
+   to the PI home direction and a length. PI reliability ``r_PI = min(1, L / pi_full_m)``: it grows
+   with the home vector's length (Wystrach et al. 2015, Proc. R. Soc. B 282: 20150267).
+2. The panorama's skyline band is compared with the snapshots stored facing the nest
+   (:mod:`brains.visual_homing`): the visual homing direction and the RIDF's relative depth ``c``.
+   Visual reliability ``r_V = min(1, c / vision_full)``.
+3. Each cue is a Gaussian bump on the ring's 32 cells (:func:`brains.ring.gaussian_cue`, width
+   :data:`CUE_SIGMA_RAD`), of amplitude ``A r_i / (r_PI + r_V)`` with ``A`` = :data:`TOTAL_AMPLITUDE`
+   (twice the ring's tuned single-cue amplitude): the amplitudes share out a fixed total by
+   reliability. The ring (:func:`brains.ring.ring_attractor`) starts silent and settles for 0.2 s;
+   its bump is the combined direction.
+4. The bump is written as a goal in CPU4's format (:func:`goal_pattern`) into Stone et al.'s
+   steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`goal_steering`); the turn
+   and stride follow eqs. 3.6–3.7 (:func:`scenarios.embodied_homing.steering_command`).
+
+Cue width: with Gaussian cues of 90° the settled bump lies within 3.5° of the amplitude-weighted
+circular mean ``arg(sum_i a_i exp(i mu_i))`` for conflicts up to 150° and weights 0.25–0.75
+(``tests/unit/test_cue_integration.py``). With narrower cues the ring turns winner-take-all at large
+conflicts: at 40° the bump for equal amplitudes sits midway up to a 90° conflict and on one cue
+beyond it; a quarter weight moves it only 4° (not the 18° of the weighted mean) at a 90° conflict.
+Measured by settling the ring on the two cues (total amplitude 6) for 0.2 s. The broad cues are
+close to the cosine codes of the CX (Stone et al. 2017; Sun et al. 2020).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from brains.cx import (
+    CPU4_LEAK,
+    N_COLUMNS,
+    decode_home_vector,
+    heading_circuit,
+    preferred_headings_rad,
+    steering_populations,
+    stone2017,
+)
+from brains.ring import CUE_AMPLITUDE, N_CELLS, gaussian_cue, ring_attractor, settle
+from brains.visual_homing import homing_direction, skyline_view
+from neuronav import Circuit, SensorSpec
+
+CUE_SIGMA_RAD = float(np.radians(90.0))
+TOTAL_AMPLITUDE = 2.0 * CUE_AMPLITUDE
+GOAL_PORT = SensorSpec("goal", (2 * N_COLUMNS,), "")
+# The goal's modulation about 0.5: CPU4's own after a 10 m outbound walk (0.33–0.58 at the embodied gain).
+GOAL_AMPLITUDE = 0.15
+# Embodied CX (the path-integration scenario's i2bot protocol): gain per gait cycle, rate noise.
+MEMORY_GAIN = 0.04
+CX_NOISE = 0.0008
+# decode_home_vector's distance per metre walked at MEMORY_GAIN, straight outbound walks of 10 and 20 m
+# at 0.29 m per cycle (2.0 and 2.1; 1.4 after 2 m, 1.7 after 40 m as the memory saturates).
+DECODED_PER_M = 2.0
+
+
+def goal_pattern(direction_rad: np.ndarray, amplitude: float = GOAL_AMPLITUDE) -> np.ndarray:
+    """A CPU4-like goal (16 cells) that :func:`brains.cx.decode_home_vector` reads as ``direction_rad``.
+
+    CPU4 cells fire most for travel away from the goal, each hemisphere offset by one column:
+    cell j < 8 is ``0.5 + a cos(p_j + 45° - direction - 180°)``, cell j >= 8 the same with -45°.
+
+    Returns
+    -------
+    ndarray, shape (N, 16)
+    """
+    away = np.asarray(direction_rad, float).reshape(-1, 1) + np.pi
+    preferred = preferred_headings_rad(N_COLUMNS)[None, :]
+    column = 2.0 * np.pi / N_COLUMNS
+    left = 0.5 + amplitude * np.cos(preferred + column - away)
+    right = 0.5 + amplitude * np.cos(preferred - column - away)
+    return np.concatenate([left, right], axis=1)
+
+
+def goal_steering(noise: float = CX_NOISE) -> Circuit:
+    """Stone et al.'s steering (Pontine, CPU1, ``motor``) toward a goal read on the ``goal`` port.
+
+    Reads ``heading`` (rad, clockwise from +y) and ``goal`` (16 cells in CPU4's format,
+    :func:`goal_pattern`); writes ``motor`` (rad, positive = clockwise).
+    """
+    circuit = Circuit.merge(heading_circuit(noise, name="goal_steering"), name="goal_steering")
+    circuit.add_input("goal", 2 * N_COLUMNS, ports=[GOAL_PORT], encoder="identity")
+    steering_populations(circuit, goal="goal", noise=noise)
+    return circuit
+
+
+def cue_amplitudes(r_pi: np.ndarray, r_vision: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Peak amplitudes of the two cues: ``TOTAL_AMPLITUDE`` shared in proportion to the reliabilities.
+
+    Both reliabilities 0 gives both amplitudes 0 (no cue: the ring stays silent).
+    """
+    r_pi, r_vision = np.asarray(r_pi, float), np.asarray(r_vision, float)
+    total = r_pi + r_vision
+    safe = np.where(total > 0, total, 1.0)
+    return TOTAL_AMPLITUDE * r_pi / safe, TOTAL_AMPLITUDE * r_vision / safe
+
+
+def ring_cues(pi_rad, a_pi, vision_rad, a_vision) -> np.ndarray:
+    """The ring's input: the two Gaussian cues summed, shape (N, 32)."""
+    unit_pi = gaussian_cue(np.asarray(pi_rad, float).reshape(-1), CUE_SIGMA_RAD, N_CELLS, amplitude=1.0)
+    unit_vision = gaussian_cue(np.asarray(vision_rad, float).reshape(-1), CUE_SIGMA_RAD, N_CELLS, amplitude=1.0)
+    return np.asarray(a_pi, float).reshape(-1, 1) * unit_pi + np.asarray(a_vision, float).reshape(-1, 1) * unit_vision
+
+
+def weighted_direction(pi_rad, a_pi, vision_rad, a_vision) -> np.ndarray:
+    """The analytic combination: the amplitude-weighted circular mean of the two directions, (N,)."""
+    return np.angle(np.asarray(a_pi) * np.exp(1j * np.asarray(pi_rad)) +
+                    np.asarray(a_vision) * np.exp(1j * np.asarray(vision_rad)))
+
+
+class CueBrain:
+    """PI + visual homing + ring + CPU1 steering for ``batch`` agents (agent i seeded by ``seeds[i]``).
+
+    Parameters
+    ----------
+    config : CueIntegrationConfig
+        ``cues``, ``pi_full_m``, ``vision_full``, ``k_pi`` and ``band_deg`` are read.
+    snapshots : ndarray, shape (K, R, W)
+        Skyline views stored facing the nest.
+    seeds : sequence of int
+    """
+
+    LOG_KEYS = ("time_s", "heading_rad", "pi_rad", "pi_length_m", "vision_rad", "certainty", "weight_pi",
+                "bump_rad", "turn", "stride_rad")
+
+    def __init__(self, config, snapshots: np.ndarray, seeds) -> None:
+        self.config = config
+        self.snapshots = snapshots
+        seeds = [int(s) for s in seeds]
+        self.batch = len(seeds)
+        self.cx = stone2017(noise=CX_NOISE, memory_gain=MEMORY_GAIN, memory_leak=CPU4_LEAK).compile(
+            batch=self.batch, seeds=seeds)
+        self.ring = ring_attractor().compile(batch=self.batch)
+        self.steer = goal_steering().compile(batch=self.batch, seeds=[s + 7919 for s in seeds])
+        self.last_position = None
+        self.log: dict[str, list] = {k: [] for k in self.LOG_KEYS}
+
+    def integrate(self, heading_rad: np.ndarray, displacement_m: np.ndarray) -> None:
+        """One gait cycle of path integration: heading (N,), displacement over the cycle (N, 2) m."""
+        self.cx.step({"heading": np.asarray(heading_rad, float).reshape(-1, 1),
+                      "velocity": np.asarray(displacement_m, float).reshape(-1, 2)})
+
+    def pi_cue(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(home direction, length in metres, reliability) decoded from CPU4."""
+        direction, decoded = decode_home_vector(self.cx.memory("CPU4"), MEMORY_GAIN)
+        length_m = decoded / DECODED_PER_M
+        return direction, length_m, np.clip(length_m / self.config.pi_full_m, 0.0, 1.0)
+
+    def vision_cue(self, panorama: np.ndarray, heading_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(visual homing direction, RIDF depth, reliability) from the panoramas (N, H, W)."""
+        views = skyline_view(panorama, self.config.band_deg)
+        direction, certainty, _ = homing_direction(views, heading_rad, self.snapshots)
+        return direction, certainty, np.clip(certainty / self.config.vision_full, 0.0, 1.0)
+
+    def __call__(self, time_s: float, heading_rad: np.ndarray, position_m: np.ndarray,
+                 panorama: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """One gait cycle: integrate, combine the cues, steer; returns (turn, stride) arrays (N,)."""
+        heading = np.asarray(heading_rad, float).reshape(-1)
+        position = np.asarray(position_m, float).reshape(-1, 2)
+        if self.last_position is None:
+            self.last_position = position.copy()
+        self.integrate(heading, position - self.last_position)
+        self.last_position = position.copy()
+        pi_rad, length_m, r_pi = self.pi_cue()
+        if panorama is None:
+            vision_rad, certainty, r_vision = np.zeros(self.batch), np.zeros(self.batch), np.zeros(self.batch)
+        else:
+            vision_rad, certainty, r_vision = self.vision_cue(panorama, heading)
+        if self.config.cues == "pi":
+            r_vision = np.zeros(self.batch)
+        elif self.config.cues == "vision":
+            r_pi = np.zeros(self.batch)
+        a_pi, a_vision = cue_amplitudes(r_pi, r_vision)
+        self.ring.reset()
+        bump = settle(self.ring, ring_cues(pi_rad, a_pi, vision_rad, a_vision))
+        self.steer.step({"heading": heading[:, None], "goal": goal_pattern(bump)})
+        turn, stride = steering_commands(self.steer.rates("CPU1"), self.config.k_pi)
+        weight_pi = np.where(a_pi + a_vision > 0, a_pi / np.where(a_pi + a_vision > 0, a_pi + a_vision, 1.0), np.nan)
+        for key, value in (("time_s", np.full(self.batch, time_s)), ("heading_rad", heading), ("pi_rad", pi_rad),
+                           ("pi_length_m", length_m), ("vision_rad", vision_rad), ("certainty", certainty),
+                           ("weight_pi", weight_pi), ("bump_rad", bump), ("turn", turn), ("stride_rad", stride)):
+            self.log[key].append(np.array(value, float))
+        return turn, stride
+
+
+def steering_commands(cpu1: np.ndarray, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eqs. 3.6–3.7 for a batch: θ = k (ΣCPU1 8–15 − ΣCPU1 0–7) clipped to [-1, 1], S_l = 5° + 20° (1 − |θ|)."""
+    theta = np.clip(k * (cpu1[:, 8:].sum(axis=1) - cpu1[:, :8].sum(axis=1)), -1.0, 1.0)
+    return theta, np.radians(5.0) + np.radians(20.0) * (1.0 - np.abs(theta))

@@ -1,0 +1,209 @@
+"""Cue integration: the ring's combination of two cues, the RIDF visual homing, the CPU1 goal steering and
+the scenario's kinematic protocol (scenarios/cue_integration*.py, brains/visual_homing.py)."""
+
+import numpy as np
+import pytest
+
+from brains.cx import decode_home_vector
+from brains.ring import gaussian_cue, ring_attractor, settle
+from brains.visual_homing import homing_direction, ridf, skyline_view
+from neuronav.config import apply_overrides
+from neuronav.errors import ConfigError
+from neuronav.runner import load_scenario, run_trials
+from scenarios.cue_integration import CueIntegrationConfig, crossing_bearing, cue_world, take_snapshots
+from scenarios.cue_integration_brain import (
+    TOTAL_AMPLITUDE,
+    cue_amplitudes,
+    goal_pattern,
+    goal_steering,
+    ring_cues,
+    weighted_direction,
+)
+
+
+def wrap_deg(angle_rad):
+    return np.degrees(np.angle(np.exp(1j * np.asarray(angle_rad))))
+
+
+def settled(pi_rad, a_pi, vision_rad, a_vision):
+    cues = ring_cues(pi_rad, a_pi, vision_rad, a_vision)
+    return settle(ring_attractor().compile(batch=cues.shape[0]), cues)
+
+
+# ---- the ring's combination -------------------------------------------------------------------------
+
+def test_with_one_cue_at_zero_strength_the_bump_follows_the_other():
+    angles = np.radians([-170.0, -100.0, -35.0, 10.0, 75.0, 140.0])
+    other = angles + np.radians(80.0)
+    only_pi = settled(angles, TOTAL_AMPLITUDE, other, 0.0)
+    only_vision = settled(angles, 0.0, other, TOTAL_AMPLITUDE)
+    assert np.abs(wrap_deg(only_pi - angles)).max() < 1.0
+    assert np.abs(wrap_deg(only_vision - other)).max() < 1.0
+
+
+def test_equal_strengths_settle_midway_between_the_cues():
+    conflicts = np.radians([20.0, 45.0, 60.0, 90.0, 120.0])
+    base = np.radians(30.0)
+    bump = settled(base + conflicts, 3.0, np.full(conflicts.size, base), 3.0)
+    np.testing.assert_allclose(wrap_deg(bump - (base + conflicts / 2)), 0.0, atol=1.0)
+
+
+def test_settled_bump_matches_the_weighted_circular_mean():
+    """90° cues: the bump lies within 3.5° of arg(sum a_i exp(i mu_i)) for conflicts up to 150°."""
+    weights, conflicts = np.meshgrid([0.25, 0.5, 0.75], np.radians([30.0, 60.0, 90.0, 120.0, 150.0]))
+    weights, conflicts = weights.ravel(), conflicts.ravel()
+    a_pi, a_vision = TOTAL_AMPLITUDE * weights, TOTAL_AMPLITUDE * (1.0 - weights)
+    vision = np.full(weights.size, -0.4)
+    bump = settled(vision + conflicts, a_pi, vision, a_vision)
+    expected = weighted_direction(vision + conflicts, a_pi, vision, a_vision)
+    assert np.abs(wrap_deg(bump - expected)).max() < 3.5
+    # And it is not the nearer cue: it moves with the weights.
+    assert np.all(np.diff(wrap_deg(bump - vision).reshape(5, 3), axis=1) > 5.0)
+
+
+def test_narrow_cues_turn_the_ring_winner_take_all_at_large_conflicts():
+    """The module docstring's reason for 90° cues: 40° cues of equal strength 120° apart leave the bump on one."""
+    cues = (gaussian_cue(0.0, np.radians(40.0)) + gaussian_cue(np.radians(120.0), np.radians(40.0)))[None]
+    bump = wrap_deg(settle(ring_attractor().compile(batch=1), cues))[0]
+    assert min(abs(bump), abs(bump - 120.0)) < 5.0
+
+
+def test_cue_amplitudes_share_the_total_by_reliability():
+    a_pi, a_vision = cue_amplitudes(np.array([0.5, 0.0, 0.2, 0.0]), np.array([0.5, 0.7, 0.6, 0.0]))
+    np.testing.assert_allclose(a_pi, [3.0, 0.0, 1.5, 0.0])
+    np.testing.assert_allclose(a_vision, [3.0, 6.0, 4.5, 0.0])
+
+
+# ---- steering toward the bump through CPU1 ---------------------------------------------------------------
+
+def test_goal_pattern_decodes_to_its_direction():
+    directions = np.radians(np.arange(-180.0, 180.0, 17.0))
+    decoded, _ = decode_home_vector(goal_pattern(directions))
+    np.testing.assert_allclose(wrap_deg(decoded - directions), 0.0, atol=1e-9)
+
+
+def test_goal_steering_turns_toward_the_goal():
+    """CPU1 imbalance (left - right) near -1.27 sin(goal - heading) (exactly at headings on a column; here
+    0.7 rad, between columns, within 0.13): near zero at the goal, > 0 (a left turn) when the goal lies
+    counter-clockwise, < 0 when clockwise."""
+    errors = np.radians([-120.0, -60.0, -20.0, 0.0, 20.0, 60.0, 120.0])
+    circuit = goal_steering(noise=0.0).compile(batch=errors.size)
+    heading = np.full(errors.size, 0.7)
+    for _ in range(30):
+        circuit.step({"heading": heading[:, None], "goal": goal_pattern(heading + errors)})
+    cpu1 = circuit.rates("CPU1")
+    imbalance = cpu1[:, 8:].sum(axis=1) - cpu1[:, :8].sum(axis=1)
+    np.testing.assert_allclose(imbalance, -1.27 * np.sin(errors), atol=0.13)
+    assert np.all(np.sign(imbalance[[0, 1, 2, 4, 5, 6]]) == -np.sign(errors[[0, 1, 2, 4, 5, 6]]))
+
+
+# ---- visual homing (RIDF) -------------------------------------------------------------------------------
+
+def test_ridf_equals_a_brute_force_rms_difference():
+    rng = np.random.default_rng(3)
+    views, snapshots = rng.random((3, 4, 72)), rng.random((2, 4, 72))
+    got = ridf(views, snapshots)
+    for n in range(3):
+        for k in range(2):
+            for j in range(72):
+                rms = np.sqrt(np.mean((np.roll(views[n], -j, axis=1) - snapshots[k]) ** 2))
+                assert got[n, k, j] == pytest.approx(rms, abs=1e-9)
+
+
+def test_homing_direction_recovers_the_snapshot_heading_and_a_flat_view_is_uncertain():
+    rng = np.random.default_rng(4)
+    snapshot = rng.random((1, 9, 72))
+    # Seen from heading h, the snapshot's view lies 5° per column the other way: roll(snapshot, +k).
+    views = np.stack([np.roll(snapshot[0], 7, axis=1), np.roll(snapshot[0], -20, axis=1), np.full((9, 72), 0.5)])
+    headings = np.radians([10.0, -40.0, 0.0])
+    direction, certainty, best = homing_direction(views, headings, snapshot)
+    np.testing.assert_allclose(wrap_deg(direction[:2]), [10.0 + 35.0, -40.0 - 100.0], atol=1e-9)
+    assert certainty[0] > 0.9 and certainty[1] > 0.9 and certainty[2] == pytest.approx(0.0, abs=0.05)
+    assert list(best) == [0, 0, 0]
+
+
+def test_skyline_view_keeps_the_band_above_the_horizon():
+    panorama = np.arange(72)[None, :, None] * np.ones((1, 72, 72))  # each row its own index
+    band = skyline_view(panorama, band_deg=45.0)
+    assert band.shape == (1, 9, 72)
+    np.testing.assert_allclose(band[0, :, 0], np.arange(18, 36, 2) + 0.5)
+    with pytest.raises(ConfigError, match="band_deg"):
+        skyline_view(panorama, band_deg=0.0)
+
+
+def test_views_in_the_forest_point_home_from_near_the_nest():
+    """Ray-cast panoramas 1.5–4 m from the nest, random headings: the RIDF's direction is within 30° of
+    the nest for at least 90 % of places, and deeper (more certain) nearer the stored views."""
+    from neuronav import registry
+    from neuronav.world import PointAgents
+    from scenarios.cue_integration import panorama_camera
+
+    config = CueIntegrationConfig()
+    world = cue_world(config)
+    snapshots = take_snapshots(config, world)
+    rng = np.random.default_rng(5)
+    count = 40
+    bearing, heading = rng.uniform(0, 2 * np.pi, count), rng.uniform(-np.pi, np.pi, count)
+    distance = np.where(np.arange(count) < count // 2, 3.0, 6.0)
+    positions = distance[:, None] * np.stack([np.sin(bearing), np.cos(bearing)], axis=1)
+    engine = registry.load("backend", "kinematic")(timestep_s=0.008)
+    with engine:
+        engine.load(world, [PointAgents(count=count, mode="unicycle", cameras=(panorama_camera(1),))])
+        engine.reset(seed=0, heading_rad=heading, position_m=positions)
+        views = skyline_view(engine.read(("panorama",))["panorama"])
+    direction, certainty, _ = homing_direction(views, heading, snapshots)
+    error = np.abs(wrap_deg(direction - (bearing + np.pi)))
+    near = distance == 3.0
+    assert np.mean(error[near] < 30.0) >= 0.9, error[near]
+    assert np.median(certainty[near]) > 2 * np.median(certainty[~near])
+
+
+# ---- the scenario's protocol ------------------------------------------------------------------------------
+
+def run(trials, seed=0, **overrides):
+    config = apply_overrides(CueIntegrationConfig, [f"{k}={v}" for k, v in overrides.items()])
+    return run_trials(load_scenario("cue-integration"), config, "kinematic", trials=trials, seed=seed)
+
+
+def circular_mean_deg(values):
+    return float(np.degrees(np.angle(np.exp(1j * np.radians(values)).mean())))
+
+
+def test_initial_heading_follows_each_cue_alone_and_lies_between_them_together():
+    """Conflict 90°: PI alone heads along the home vector, vision alone toward the nest, both in between,
+    near the reliability-weighted prediction (12 agents each, 15 s)."""
+    heading = {}
+    for cues in ("pi", "vision", "both"):
+        result = run(12, cues=cues, conflict_deg=90, timeout_s=15.0)
+        rows = [r for r in result.trials if np.isfinite(r["initial_heading_deg"])]
+        assert len(rows) >= 10
+        heading[cues] = circular_mean_deg([r["initial_heading_deg"] for r in rows])
+        if cues == "both":
+            predicted = circular_mean_deg([r["predicted_heading_deg"] for r in rows])
+            weight = np.mean([r["weight_pi"] for r in rows])
+    assert abs(heading["pi"] - 90.0) < 15.0 and abs(heading["vision"]) < 15.0, heading
+    assert 10.0 < heading["both"] < 80.0, heading
+    assert abs(heading["both"] - predicted) < 12.0, (heading, predicted, weight)
+
+
+def test_a_trial_does_not_depend_on_its_batch_mates():
+    alone = run(1, seed=4, timeout_s=3.2).trials[0]
+    batch = run(3, seed=2, timeout_s=3.2).trials[2]
+    for key in ("initial_heading_deg", "pi_cue_deg", "vision_cue_deg", "weight_pi", "predicted_heading_deg"):
+        assert alone[key] == pytest.approx(batch[key], abs=1e-9, nan_ok=True), key
+
+
+def test_bad_settings_are_refused_with_a_clear_message():
+    with pytest.raises(ConfigError, match="conflict_deg"):
+        apply_overrides(CueIntegrationConfig, ["conflict_deg=west"])
+    with pytest.raises(ConfigError, match="0–180"):
+        apply_overrides(CueIntegrationConfig, ["conflict_deg=0,200"])
+    with pytest.raises(ConfigError, match="nest_radius_m"):
+        apply_overrides(CueIntegrationConfig, ["nest_radius_m=5", "release_distance_m=4"])
+
+
+def test_crossing_bearing_interpolates_the_crossing_point():
+    path = np.array([[0.0, 0.0], [0.0, 1.0], [2.0, 1.0]])
+    # |(t 2, 1)| = 1.5 at t = sqrt(1.25) / 2: the point (1.118, 1).
+    assert np.degrees(crossing_bearing(path, np.zeros(2), 1.5)) == pytest.approx(np.degrees(np.arctan2(1.118034, 1)))
+    assert np.isnan(crossing_bearing(path, np.zeros(2), 5.0))
