@@ -48,13 +48,19 @@ def identity(x: np.ndarray) -> np.ndarray:
     return x
 
 
+def step(x: np.ndarray, threshold: float = 0.0) -> np.ndarray:
+    """Binary: 1 where the net input exceeds ``threshold``, else 0 (the mushroom body's Kenyon cells)."""
+    return np.greater(x, threshold, out=x)
+
+
 ACTIVATIONS: dict[str, Callable[..., np.ndarray]] = {
     "logistic": logistic,
     "relu": relu,
     "identity": identity,
+    "step": step,
 }
 
-_PARAMETERS = {"logistic": {"slope", "bias"}, "relu": set(), "identity": set()}
+_PARAMETERS = {"logistic": {"slope", "bias"}, "relu": set(), "identity": set(), "step": {"threshold"}}
 
 
 def check_activation(population: str, name: str, params: dict) -> None:

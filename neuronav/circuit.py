@@ -3,7 +3,8 @@
 Declare a network, then build it (``compile``) and run it — the nengo way. A node of
 ``circuit.graph`` is a population; its data dict holds one :class:`Population` under
 ``"population"``. An edge is a connection; its data dict holds ``weights`` (target_size,
-source_size), ``delay`` (read the source's value from the previous step) and, for reference, the
+source_size), ``delay`` (read the source's value from the previous step), ``learning`` (a
+:class:`~neuronav.plasticity.LearningRule`, or None for fixed weights) and, for reference, the
 ``rule`` and ``sign`` it was made from.
 """
 
@@ -21,6 +22,7 @@ from neuronav.activations import check_activation
 from neuronav.connectivity import make_weights
 from neuronav.encoders import get_encoder
 from neuronav.errors import CircuitError
+from neuronav.plasticity import LearningRule, check_rule
 from neuronav.ports import MotorSpec, SensorSpec
 
 KINDS = ("input", "rate", "leaky", "integrator", "output")
@@ -203,6 +205,7 @@ class Circuit:
     def connect(
         self, source: str, target: str, weights: Any = None, *, rule: str | None = None,
         rule_params: dict | None = None, gain: float = 1.0, sign: int = 1, delay: bool | None = None,
+        learning: LearningRule | None = None,
     ) -> None:
         """Connect ``source`` to ``target``: ``target_input += sign * gain * W @ source``.
 
@@ -217,6 +220,10 @@ class Circuit:
         delay : bool, optional
             Read the source's value from the previous step. Default: True for a self-connection,
             False otherwise. A cycle of undelayed connections is an error at compile time.
+        learning : LearningRule, optional
+            Make the connection plastic (:mod:`neuronav.plasticity`): each agent of a compiled
+            circuit then holds its own copy of the weights, changed every step by the rule, gated by
+            the rule's ``gate`` (an ``input`` population of one cell, declared before this call).
         """
         for name in (source, target):
             if name not in self.graph:
@@ -252,10 +259,19 @@ class Circuit:
         matrix = sign * float(gain) * matrix
         if not np.all(np.isfinite(matrix)):
             raise CircuitError(f"connection {source!r} -> {target!r}: weights (times gain {gain!r}) contain NaN or inf")
+        if learning is not None:
+            self._check_learning(source, target, learning, matrix)
         self.graph.add_edge(
             source, target, weights=matrix,
-            delay=(source == target) if delay is None else bool(delay), rule=rule, sign=sign,
+            delay=(source == target) if delay is None else bool(delay), rule=rule, sign=sign, learning=learning,
         )
+
+    def _check_learning(self, source: str, target: str, learning, matrix: np.ndarray) -> None:
+        """The rule valid, its gate an input population of one cell, the weights inside its bounds."""
+        where = f"connection {source!r} -> {target!r}"
+        check_rule(where, learning)
+        check_gate(self, where, learning.gate)
+        learning.check_weights(where, matrix)
 
     # -- inspecting -------------------------------------------------------------------------
     def population(self, name: str) -> Population:
@@ -314,6 +330,9 @@ class Circuit:
         for node in self.graph:
             out.add(replace(self.population(node), name=mapping[node]))
         for source, target, data in self.graph.edges(data=True):
+            learning = data.get("learning")
+            if learning is not None:  # the gate is a population of this circuit: renamed with it
+                data = dict(data, learning=replace(learning, gate=mapping.get(learning.gate, learning.gate)))
             out.graph.add_edge(mapping[source], mapping[target], **data)
         return out
 
@@ -373,6 +392,18 @@ class Circuit:
     def __repr__(self) -> str:
         return (f"Circuit({self.name!r}, {self.graph.number_of_nodes()} populations, "
                 f"{self.graph.number_of_edges()} connections)")
+
+
+def check_gate(circuit: Circuit, where: str, gate: str) -> None:
+    """Raise :class:`CircuitError` unless ``gate`` is an ``input`` population of one cell in ``circuit``."""
+    if gate not in circuit.graph:
+        inputs = sorted(p.name for p in circuit.populations if p.kind == "input")
+        raise CircuitError(f"{where}: learning gate {gate!r} is not a population of circuit {circuit.name!r}; "
+                           f"its input populations: {', '.join(inputs) or 'none'}")
+    population = circuit.population(gate)
+    if population.kind != "input" or population.size != 1:
+        raise CircuitError(f"{where}: learning gate {gate!r} must be an input population of one cell, got a "
+                           f"{population.kind} population of {population.size}")
 
 
 def _population(name: str, size: int, kind: str, options: dict) -> Population:

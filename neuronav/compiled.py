@@ -12,6 +12,12 @@ its source as it was at the start of the step.
 
 Noise comes from one seeded :class:`numpy.random.Generator` (SFC64) per agent, drawn ahead in blocks, so
 agent i of a batch sees exactly the numbers a single run with that agent's seed sees.
+
+Plastic connections (those declared with ``learning=``, :mod:`neuronav.plasticity`) are the one
+exception to shared weights: each agent holds its own copy, (batch, post, pre), read by one more
+term of the target's product (:func:`_plastic_term`) and changed by the rule after every step
+(:class:`_PlasticConnection`). Fixed connections keep one matrix for all agents, and a circuit
+without plastic connections steps exactly as before.
 """
 
 from __future__ import annotations
@@ -123,8 +129,9 @@ class _Product:
     """
 
     def __init__(self, reads: list[tuple[bool, int, np.ndarray]], size: int, dtype: np.dtype,
-                 sparse: bool, bias: float = 0.0) -> None:
-        # reads: (from_snapshot, first state row, weights (size, span)).
+                 sparse: bool, bias: float = 0.0, plastic: Sequence[tuple] = ()) -> None:
+        # reads: (from_snapshot, first state row, weights (size, span)); plastic: (from_snapshot,
+        # first state row, _PlasticConnection, scale), one term each (see _plastic_term).
         self.size = size
         self.dtype = dtype
         self.terms: list[tuple] = []  # (kind, from_snapshot, rows, weights, first slot, slots)
@@ -155,6 +162,10 @@ class _Product:
             kind, data, slots = term
             self.terms.append((kind, from_snapshot, slice(lo, lo + span), data, slot, slots))
             slot += slots
+        for from_snapshot, lo, connection, scale in plastic:
+            rows = slice(lo, lo + connection.initial.shape[1])
+            self.terms.append(("plastic", from_snapshot, rows, (connection, float(scale)), slot, 1))
+            slot += 1
         # The bias is the last term when the terms are summed anyway (or alone): ((t0 + t1) + ...) + b,
         # the same numbers as adding it afterwards, one call fewer.
         self.bias = float(bias)
@@ -193,6 +204,11 @@ class _Product:
                 calls.append(functools.partial(np.multiply, data, source[rows][:, None, :], out=target))
             elif kind == "constant":
                 target[...] = data  # filled once: never written again
+            elif kind == "plastic":
+                connection, scale = data
+                scratch = np.zeros(connection.values.shape, state.dtype)
+                calls.append(functools.partial(_plastic_term, connection.values, source[rows], target[0], scratch,
+                                               scale))
             elif kind == "gather":
                 index, values = data
                 # mode "clip" (the indices are always in range): with "raise" numpy buffers ``out``.
@@ -221,6 +237,43 @@ class _Product:
 
 def _sparse_term(matrix, source: np.ndarray, out: np.ndarray) -> None:
     np.copyto(out, matrix @ source)
+
+
+def _plastic_term(values: np.ndarray, source: np.ndarray, out: np.ndarray, scratch: np.ndarray,
+                  scale: float) -> None:
+    """Each agent's own weights times its rates: ``out[i, b] = scale * Σ_j values[b, i, j] source[j, b]``.
+
+    The products are formed element-wise and each agent's row summed alone (along the contiguous
+    last axis), so an agent's sum never depends on its batch-mates (no BLAS blocking).
+    """
+    np.multiply(values, source.T[:, None, :], out=scratch)
+    total = np.add.reduce(scratch, axis=2)  # (batch, post)
+    if scale != 1.0:
+        total *= scale
+    np.copyto(out, total.T)
+
+
+class _PlasticConnection:
+    """A plastic connection of a compiled circuit: its rule, its rows of the state and every agent's weights.
+
+    ``values`` (batch, post, pre) is allocated once and only ever written in place, so the product
+    terms bound to it see every change (learning, :meth:`CompiledCircuit.set_weights`, loading).
+    """
+
+    def __init__(self, name: str, rule, initial: np.ndarray, source: slice, target: slice, gate: slice,
+                 dtype: np.dtype) -> None:
+        self.name, self.rule = name, rule
+        self.initial = np.asarray(initial, dtype)
+        self.source, self.target, self.gate = source, target, gate
+        self.values = np.empty((0, *self.initial.shape), dtype)
+
+    def allocate(self, batch: int) -> None:
+        self.values = np.empty((batch, *self.initial.shape), self.initial.dtype)
+        self.values[...] = self.initial
+
+    def learn(self, state: np.ndarray) -> None:
+        """One step of the rule on this step's rates (source, target, gate) of every agent."""
+        self.rule.update(self.values, state[self.source], state[self.target], state[self.gate.start])
 
 
 # -- one small step per population kind (nengo's builder style) -----------------------------------
@@ -446,6 +499,7 @@ class CompiledCircuit:
         self._inputs: list[tuple] = []
         self._updates: list[_PopulationStep] = []
         self._needs_snapshot = False
+        self._plastic: dict[str, _PlasticConnection] = {}
         position = {name: i for i, name in enumerate(self.order)}
         for name in self.order:
             pop = circuit.population(name)
@@ -456,7 +510,11 @@ class CompiledCircuit:
         self._outputs = [(p.ports[0].name, self.cells[p.name]) for p in
                          (circuit.population(n) for n in self.order) if p.kind == "output"]
         self._memory_names = [u.name for u in self._updates if u.kind == "integrator"]
+        self._plastic = dict(sorted(self._plastic.items()))  # learning order: by name
+        self._learning = list(self._plastic.values())
         self._check_size()
+        for connection in self._learning:
+            connection.allocate(self.batch)
 
         if seeds is None:
             if seed is None:
@@ -543,12 +601,16 @@ class CompiledCircuit:
         name = pop.name
         if pop.kind == "leaky":
             check_leaky_step(name, pop.tau_s, self.dt_s)
-        now, prev = [], []
+        now, prev, plastic = [], [], []
         for source in self.circuit.graph.predecessors(name):
             edge = self.circuit.graph.edges[source, name]
             # A delayed connection from a population already updated this step reads the snapshot.
-            (prev if edge["delay"] and position[source] < position[name] else now).append((source, edge["weights"]))
-        self._needs_snapshot |= bool(prev)
+            from_snapshot = bool(edge["delay"] and position[source] < position[name])
+            if edge.get("learning") is not None:
+                plastic.append((from_snapshot, self._build_plastic(source, name, edge)))
+                continue
+            (prev if from_snapshot else now).append((source, edge["weights"]))
+        self._needs_snapshot |= bool(prev) or any(from_snapshot for from_snapshot, _ in plastic)
         activation, params, bias = ACTIVATIONS[pop.activation], dict(pop.params), float(pop.bias)
         scale = 1.0
         if pop.activation == "logistic" and pop.kind != "integrator":
@@ -557,7 +619,8 @@ class CompiledCircuit:
             scale = -slope
             activation, params, bias = logistic_of_negated, {}, -slope * bias + offset
         reads = self._reads(now, pop.size, False, scale) + self._reads(prev, pop.size, True, scale)
-        product = _Product(reads, pop.size, self.dtype, self.sparse, bias)
+        plastic_terms = sorted(((snap, c.source.start, c, scale) for snap, c in plastic), key=lambda t: (t[1], t[0]))
+        product = _Product(reads, pop.size, self.dtype, self.sparse, bias, plastic_terms)
         common = (name, self.cells[name], product, bias, activation, params, self._noise_columns.get(name), pop.clip)
         if pop.kind == "leaky":
             return _LeakyStep(*common, leak_fraction=self.dt_s / pop.tau_s)
@@ -565,6 +628,18 @@ class CompiledCircuit:
             return _IntegratorStep(*common, gain=float(pop.gain), leak=float(pop.leak), drive_clip=pop.drive_clip,
                                    memory_clip=pop.memory_clip)
         return _RateStep(*common)
+
+    def _build_plastic(self, source: str, target: str, edge: dict) -> _PlasticConnection:
+        """A plastic connection: its rule checked against this circuit, its weights allocated later."""
+        from neuronav.circuit import check_gate
+
+        name = f"{source}->{target}"
+        rule = edge["learning"]
+        check_gate(self.circuit, f"connection {source!r} -> {target!r}", rule.gate)
+        connection = _PlasticConnection(name, rule, edge["weights"], self.cells[source], self.cells[target],
+                                        self.cells[rule.gate], self.dtype)
+        self._plastic[name] = connection
+        return connection
 
     @staticmethod
     def _check_encoder(pop, encoder) -> None:
@@ -619,6 +694,8 @@ class CompiledCircuit:
         cells += sum(self.circuit.population(n).size * 2 for n in self._memory_names)
         buffers = sum(u.product.buffer_bytes(1, itemsize) for u in self._updates)
         noise = self._noise_width * itemsize * 2 + (RNG_BYTES if self._noise_width else 0)
+        # Each plastic connection: the agent's weights and the product's scratch of the same size.
+        noise += sum(2 * c.initial.size * itemsize for c in self._plastic.values())
         return cells * itemsize + buffers + noise
 
     def _check_size(self) -> None:
@@ -633,7 +710,10 @@ class CompiledCircuit:
 
     # -- running --------------------------------------------------------------------------------
     def reset(self) -> None:
-        """Return every population to its initial rates and memory, and restart the noise streams."""
+        """Return every population to its initial rates and memory, and restart the noise streams.
+
+        Plastic weights keep what they learnt (:meth:`reset_weights` returns them to the declared ones).
+        """
         self._state = np.zeros((self.total_cells, self.batch), self.dtype)
         for name in self.order:
             self._state[self.cells[name]] = self.circuit.population(name).initial
@@ -749,6 +829,8 @@ class CompiledCircuit:
         noise = self._draw_noise() if self._noise_width else None
         for update in self._updates:
             update(noise)
+        for connection in self._learning:
+            connection.learn(state)
         self.steps += 1
         return {port: state[cells].T.copy() for port, cells in self._outputs}
 
@@ -865,6 +947,80 @@ class CompiledCircuit:
                                    f"(memory_clip), got {bad!r}")
         self._memory[name][...] = values.T
         update.rates_of_memory()
+
+    # -- plastic weights ------------------------------------------------------------------------
+    @property
+    def plastic(self) -> list[str]:
+        """Names (``"SOURCE->TARGET"``) of the plastic connections, sorted."""
+        return list(self._plastic)
+
+    def _connection(self, name: str) -> tuple[str, str, dict]:
+        """The edge called ``"SOURCE->TARGET"``, or a CircuitError listing the connections."""
+        source, _, target = name.partition("->") if isinstance(name, str) else ("", "", "")
+        if not self.circuit.graph.has_edge(source, target):
+            names = sorted(f"{s}->{t}" for s, t in self.circuit.graph.edges)
+            raise CircuitError(f"circuit {self.circuit.name!r} has no connection {name!r} (named 'SOURCE->TARGET'); "
+                               f"it has: {', '.join(names) or 'none'}")
+        return source, target, self.circuit.graph.edges[source, target]
+
+    def weights(self, name: str) -> np.ndarray:
+        """A copy of connection ``name``'s (``"SOURCE->TARGET"``) weights, shape (batch, post, pre).
+
+        A plastic connection gives each agent's own weights; a fixed one its shared matrix, repeated.
+        """
+        _, _, edge = self._connection(name)
+        if name in self._plastic:
+            return self._plastic[name].values.copy()
+        return np.repeat(np.asarray(edge["weights"], self.dtype)[None], self.batch, axis=0)
+
+    def set_weights(self, name: str, values: Any) -> None:
+        """Overwrite plastic connection ``name``'s weights with ``values`` broadcast to (batch, post, pre)."""
+        self._connection(name)
+        if name not in self._plastic:
+            raise CircuitError(f"set_weights({name!r}): the connection is fixed (one matrix shared by every agent); "
+                               f"plastic connections: {', '.join(self._plastic) or 'none'}")
+        connection = self._plastic[name]
+        try:
+            values = np.broadcast_to(np.asarray(values, dtype=self.dtype), connection.values.shape)
+        except (TypeError, ValueError):
+            raise CircuitError(f"set_weights({name!r}): values must be numbers broadcastable to "
+                               f"{connection.values.shape} (batch, post, pre), got shape {np.shape(values)}") from None
+        if not np.isfinite(values).all():
+            raise CircuitError(f"set_weights({name!r}): values must be finite")
+        connection.rule.check_weights(f"set_weights({name!r})", values)
+        connection.values[...] = values
+
+    def reset_weights(self) -> None:
+        """Return every plastic connection to its declared weights (:meth:`reset` keeps what was learnt)."""
+        for connection in self._learning:
+            connection.values[...] = connection.initial
+
+    def save_weights(self, path) -> None:
+        """Write every plastic connection's weights to an ``.npz`` file, one array per connection."""
+        arrays = {name: c.values for name, c in self._plastic.items()}
+        np.savez(path, **arrays)
+
+    def load_weights(self, path) -> None:
+        """Read plastic weights written by :meth:`save_weights`.
+
+        The file must hold exactly this circuit's plastic connections; an array saved from one agent
+        (first axis 1) is given to every agent, else its batch must match.
+        """
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {key: data[key] for key in data.files}
+        except (OSError, ValueError) as error:
+            raise CircuitError(f"load_weights: cannot read {str(path)!r} as an .npz of weights ({error})") from None
+        if set(arrays) != set(self._plastic):
+            raise CircuitError(f"load_weights: {str(path)!r} holds {', '.join(sorted(arrays)) or 'nothing'}; circuit "
+                               f"{self.circuit.name!r} has plastic connections {', '.join(self._plastic) or 'none'}")
+        for name, values in arrays.items():
+            expected = self._plastic[name].values.shape
+            if values.shape not in (expected, (1, *expected[1:])):
+                raise CircuitError(f"load_weights: {name!r} in {str(path)!r} has shape {values.shape}, expected "
+                                   f"{expected} or {(1, *expected[1:])}")
+        for name, values in arrays.items():
+            self.set_weights(name, values)
 
     def all_finite(self) -> bool:
         """True while every rate and memory is finite (a cheap divergence check)."""
