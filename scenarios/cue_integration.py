@@ -48,6 +48,7 @@ from neuronav.loop import Clocks, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import forest, vision_appearance
 from neuronav.world import Ground, PointAgents, World
+from scenarios import EVERY_BACKEND
 from scenarios.cue_integration_brain import CueBrain, weighted_direction
 from scenarios.trial_loop import run_loop
 from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
@@ -307,7 +308,7 @@ class CueIntegration(Scenario):
     description = ("PI home vector + visual homing (RIDF on stored views) combined in the ring attractor, steering "
                    "through CPU1; cue conflict by a displaced release (Sun et al. 2020; Wystrach et al. 2015)")
     config_type = CueIntegrationConfig
-    backends = ("kinematic", "mujoco", "pybullet")
+    backends = EVERY_BACKEND
     default_backend = "kinematic"
     records_video = True
     timing_metrics = ("real_time_factor",)
