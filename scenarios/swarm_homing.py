@@ -116,8 +116,11 @@ class SwarmBodies:
             self.gaits = [make_gait("tripod", ant) for _ in range(self.count)]
             self.physics_steps = integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
 
-    def reset(self, homes: np.ndarray, headings_rad: np.ndarray) -> None:
-        self.engine.reset(position_m=homes, heading_rad=headings_rad)
+    def reset(self, starts_m: np.ndarray, headings_rad: np.ndarray) -> None:
+        """Every ant at rest at its start (N, 2) m facing its heading (N,) rad (clockwise from +y); gaits restart."""
+        self.engine.reset(position_m=starts_m, heading_rad=headings_rad)
+        for gait in self.gaits or ():
+            gait.reset()
 
     def control_step(self, turn: np.ndarray, stride_rad: np.ndarray) -> None:
         """One 8 ms control step at this command: the unicycle takes it, or each ant's gait walks it."""
