@@ -18,7 +18,8 @@
   of :mod:`neuronav.vision`). Reward, termination and the start pose are the task object's.
 - :func:`environment` — a ``composer.Environment`` of a task.
 
-The action is the locomotion command (``turn`` θ in [-1, 1], ``stride`` S_l in rad), held for one
+The action is the locomotion command (``turn`` θ in [-1, 1], ``stride`` S_l in rad; outside its
+bounds, not finite or of another shape: a :class:`~neuronav.errors.PortError`), held for one
 control period (``cycle_s``, the scenarios' brain period) and walked by the gait given (its targets
 written every ``control_s``). The episode ends at the task's goal (``discount`` 0) or at its time
 limit (``discount`` 1: truncated, dm_env's convention).
@@ -44,7 +45,7 @@ from backends.dm_control.backend import DmControlBackend  # noqa: E402
 from backends.mujoco.mjcf import SCENE_BODY, ModelNames, build_spec, to_xml  # noqa: E402
 from backends.mujoco.swarm import prefixed_body  # noqa: E402
 from neuronav.body import BodySpec  # noqa: E402
-from neuronav.errors import ConfigError  # noqa: E402
+from neuronav.errors import ConfigError, PortError  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
 ENTITY_NAME = "ant"
@@ -273,8 +274,15 @@ class PortTask(composer.Task):
         self._state = self._previous = self._read()
 
     def before_step(self, physics, action, random_state) -> None:
-        command = np.asarray(action, dtype=float).reshape(-1)
-        self._action_spec.validate(command)  # a wrong shape or a value out of bounds: dm_env's ValueError
+        spec = self._action_spec
+        try:
+            command = np.asarray(action, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            command = np.full(0, np.nan)
+        if (command.shape != spec.shape or not np.isfinite(command).all()
+                or (command < spec.minimum).any() or (command > spec.maximum).any()):
+            raise PortError(f"action must be (turn in [{spec.minimum[0]:g}, {spec.maximum[0]:g}], stride_rad in "
+                            f"[{spec.minimum[1]:g}, {spec.maximum[1]:.4g}]), finite; got {action!r}")
         self._command = command
         self._previous = self._state
 

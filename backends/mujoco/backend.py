@@ -447,7 +447,7 @@ class MujocoBackend(ArticulatedBackend):
 
     def _require(self) -> BodySpec:
         if self.model is None:
-            raise SimulationError("mujoco backend: call load(world, [body_spec]) first")
+            raise SimulationError(f"{self.engine} backend: call load(world, [body_spec]) first")
         return self.body
 
     def _require_model(self) -> tuple[mujoco.MjModel, mujoco.MjData]:

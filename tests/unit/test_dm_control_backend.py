@@ -88,9 +88,11 @@ def test_a_diverged_state_is_a_simulation_error_as_on_mujoco(ant):
     assert np.isfinite(dm.data.qpos).all()
 
 
-def test_bad_timestep_names_the_backend():
+def test_bad_input_names_the_backend():
     with pytest.raises(ConfigError, match="dm_control backend: timestep_s"):
         DmControlBackend(timestep_s=-1.0)
+    with pytest.raises(SimulationError, match="dm_control backend: call load"):
+        DmControlBackend().step(1)
 
 
 def test_locomotion_runs_on_dm_control_and_repeats_under_its_seed():

@@ -19,7 +19,7 @@ from dm_env import test_utils  # noqa: E402
 from backends.dm_control import DmControlBackend  # noqa: E402
 from bodies.desert_ant import desert_ant  # noqa: E402
 from bodies.gaits import make_gait  # noqa: E402
-from neuronav.errors import ConfigError  # noqa: E402
+from neuronav.errors import ConfigError, PortError  # noqa: E402
 from neuronav.loop import AgentLoop, Clocks  # noqa: E402
 from scenarios.envs.dm_env_tasks import action_bounds, load, task_names  # noqa: E402
 from scenarios.envs.tasks import TASKS, make_task  # noqa: E402
@@ -68,8 +68,7 @@ def test_observables_are_the_task_ports_and_reward_is_the_task_progress(name):
         assert timestep.reward == pytest.approx(task.reward(before, after), abs=1e-12)
         assert abs(timestep.reward) > 0.05  # the ant walked (the tripod covers ~0.27 m per cycle)
         for port in task.observation_ports:
-            np.testing.assert_array_equal(timestep.observation[port], np.asarray(after[port]).reshape(-1)
-                                          if timestep.observation[port].ndim == 1 else after[port])
+            np.testing.assert_array_equal(timestep.observation[port], after[port], err_msg=port)
     finally:
         env.close()
 
@@ -156,6 +155,17 @@ def test_composer_ant_walks_like_the_dm_control_backend():
     assert np.hypot(*(position - start.position_m)) > 0.3  # it walked
     np.testing.assert_allclose(composer_position, position, atol=2e-4)
     np.testing.assert_allclose(composer_state.observation["heading"], heading, atol=2e-4)
+
+
+@pytest.mark.parametrize("action", [[0.0, 1.0], [2.0, 0.1], [0.0], [np.nan, 0.1], "fast"])
+def test_bad_action_is_a_port_error_naming_the_bounds(action):
+    env = load("homing", random_state=0)
+    try:
+        env.reset()
+        with pytest.raises(PortError, match=r"action must be \(turn in \[-1, 1\], stride_rad in \[0, 0.4363\]\)"):
+            env.step(action)
+    finally:
+        env.close()
 
 
 def test_bad_time_limit_is_a_config_error():
