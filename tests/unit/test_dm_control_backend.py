@@ -102,3 +102,26 @@ def test_locomotion_runs_on_dm_control_and_repeats_under_its_seed():
     second = run_trials(scenario(), config, "dm_control", trials=1, seed=2)
     assert first.trials[0]["status"] == "ok", first.trials[0]["error"]
     assert first.trials[0]["forward_speed_m_s"] == second.trials[0]["forward_speed_m_s"]
+
+
+def test_composer_entity_and_arena_come_from_the_backend_mjcf(ant):
+    from dm_control import mjcf
+
+    from backends.dm_control.composer_env import AntEntity, WorldArena, split_mjcf
+    from neuronav.odour import PolylineTrail
+    from scenarios.odour_trail import trail_world
+
+    world = trail_world(PolylineTrail(vertices_m=np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0]]), width_m=0.3))
+    arena_root, ant_root = split_mjcf(world, ant, 0.002)
+    arena, entity = WorldArena(arena_root), AntEntity(ant_root)
+    assert [a.name for a in entity.actuators] == ant.joint_names
+    free_joint = arena.add_ant(entity, free=True)
+    physics = mjcf.Physics.from_mjcf_model(arena.mjcf_model)
+    model = physics.model
+    assert [model.id2name(i, "actuator") for i in range(model.nu)] == ["ant/" + j for j in ant.joint_names]
+    assert model.jnt_type[model.name2id(free_joint, "joint")] == 0  # mjJNT_FREE, on the attachment frame
+    # The ant's bodies weigh what the spec says (MJCF text: 6 significant digits), the world is the world's.
+    ant_bodies = [i for i in range(model.nbody) if model.id2name(i, "body").startswith("ant/")]
+    assert model.body_mass[ant_bodies].sum() == pytest.approx(ant.total_mass_kg, rel=1e-5)
+    assert "trails" in [model.id2name(i, "texture") for i in range(model.ntex)]
+    assert model.opt.timestep == 0.002
