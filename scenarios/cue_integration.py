@@ -1,20 +1,21 @@
 """``cue-integration``: path integration and visual homing combined in the ring attractor (Sun et al. 2020).
 
-The field experiment (Legge et al. 2014, Front. Behav. Neurosci. 8: 57; Wystrach et al. 2015, Proc. R.
-Soc. B 282: 20150267): an ant with a full home vector is captured and released at a place it knows
+The field experiment (Legge et al. 2014, J. Exp. Biol. 217: 4159; Wystrach et al. 2015, Proc. R.
+Soc. B 282: 20151484): an ant with a full home vector is captured and released at a place it knows
 from its views, where the home vector and the view point different ways; its initial heading falls
 between the two, weighted by how much it trusts each.
 
-Protocol per trial (seed s; ``docs/parameters.md`` §7):
+Protocol per trial (seed s; ``docs/parameters.md``, *Cue integration*):
 
 - The world: a seeded forest (``trees`` around the nest at the origin, 8–40 m away, ``forest_seed``:
   the same forest for every trial, so trials can run as one batch). Around the nest the ant has
   stored ``snapshots`` panoramas on a circle of ``snapshot_radius_m``, each facing the nest (its
   learning walks), rendered by the kinematic ray caster with the ant's own panoramic camera.
 - The home vector: the CX integrates a straight outbound walk of ``pi_distance_m`` (0.29 m per gait
-  cycle, the straight tripod's 0.45 m/s) whose home vector points ``conflict`` clockwise of the true
-  nest direction seen from the release point; then the ant is "carried" to the release point,
-  ``release_distance_m`` from the nest at a random bearing, facing a random heading.
+  cycle, the straight tripod's 0.45 m/s) whose home vector points ``conflict`` to one side (clockwise
+  or counter-clockwise at random) of the true nest direction seen from the release point; then the
+  ant is "carried" to the release point, ``release_distance_m`` from the nest at a random bearing,
+  facing a random heading.
 - Homing: every gait cycle the brain (:mod:`scenarios.cue_integration_brain`) integrates, decodes the
   PI cue, matches its panorama against the snapshots (the visual cue), feeds both into the ring
   attractor with amplitudes shared by reliability, and steers toward the settled bump through CPU1.
@@ -22,8 +23,8 @@ Protocol per trial (seed s; ``docs/parameters.md`` §7):
   (``nest_radius_m``) or at ``timeout_s``.
 
 Metrics per trial (angles in degrees, signed, relative to the true nest direction from the release
-point, positive toward the PI cue's side): ``initial_heading_deg`` (the bearing from the release
-point of where the path first reaches ``initial_distance_m`` from it), ``pi_cue_deg`` and
+point, positive toward the side the PI cue was put on): ``initial_heading_deg`` (the bearing from
+the release point of where the path first reaches ``initial_distance_m`` from it), ``pi_cue_deg`` and
 ``vision_cue_deg`` (what the two cues said at release), ``weight_pi`` (the PI cue's share of the
 amplitude at release), ``predicted_heading_deg`` (the amplitude-weighted circular mean of the two cues
 at release), ``error_to_pi_deg``, ``error_to_vision_deg`` and ``error_to_prediction_deg`` (absolute
@@ -109,15 +110,23 @@ def conflicts_deg(config: CueIntegrationConfig) -> tuple[float, ...]:
 
 
 def trial_setup(config: CueIntegrationConfig, seed: int) -> dict[str, float]:
-    """Conflict, release bearing and start heading of trial ``seed`` (rad, clockwise from +y)."""
+    """Conflict, release bearing, start heading and the side of the conflict of trial ``seed``.
+
+    Angles in rad, clockwise from +y. The home vector points ``conflict`` clockwise (side +1) or
+    counter-clockwise (side -1) of the nest, at random: a bias of the body to one side (the calibrated
+    unicycle drifts 0.02–0.08 rad/s counter-clockwise at turn 0, as the MuJoCo tripod does) then cancels
+    in the mean instead of looking like a weight.
+    """
     conflicts = conflicts_deg(config)
     rng = np.random.default_rng([seed, 14])
     bearing = float(rng.uniform(0.0, 2.0 * np.pi))
     heading = float(rng.uniform(-np.pi, np.pi))
+    side = 1.0 if rng.random() < 0.5 else -1.0
     nest = float(np.angle(np.exp(1j * (bearing + np.pi))))
     conflict = float(np.radians(conflicts[seed % len(conflicts)]))
     return {"conflict_rad": conflict, "release_m": config.release_distance_m * np.array([np.sin(bearing),
-            np.cos(bearing)]), "heading_rad": heading, "nest_rad": nest, "pi_rad": nest + conflict}
+            np.cos(bearing)]), "heading_rad": heading, "nest_rad": nest, "side": side,
+            "pi_rad": nest + side * conflict}
 
 
 def cue_world(config: CueIntegrationConfig) -> World:
@@ -277,7 +286,7 @@ def crossing_bearing(path: np.ndarray, origin: np.ndarray, distance_m: float) ->
 def cue_metrics(config: CueIntegrationConfig, setup: dict, path: np.ndarray, log: dict, arrival_s: float,
                 trial_time_s: float, wall_s: float) -> dict:
     """One trial's row: the initial heading against the two cues and their weighted prediction."""
-    nest, side = setup["nest_rad"], 1.0
+    nest, side = setup["nest_rad"], setup["side"]
     initial = crossing_bearing(path, setup["release_m"], config.initial_distance_m)
     pi_cue, vision_cue = log["pi_rad"][0], log["vision_rad"][0]
     weight_pi = log["weight_pi"][0]

@@ -5,7 +5,7 @@ Once per gait cycle (0.64 s), for a batch of agents:
 1. The CX (:func:`brains.cx.stone2017`, the embodied settings of ``path-integration``'s i2bot protocol)
    integrates the cycle's displacement; its CPU4 memory decodes (:func:`brains.cx.decode_home_vector`)
    to the PI home direction and a length. PI reliability ``r_PI = min(1, L / pi_full_m)``: it grows
-   with the home vector's length (Wystrach et al. 2015, Proc. R. Soc. B 282: 20150267).
+   with the home vector's length (Wystrach et al. 2015, Proc. R. Soc. B 282: 20151484).
 2. The panorama's skyline band is compared with the snapshots stored facing the nest
    (:mod:`brains.visual_homing`): the visual homing direction and the RIDF's relative depth ``c``.
    Visual reliability ``r_V = min(1, c / vision_full)``.
