@@ -64,8 +64,9 @@ class LearningRule:
 
         Parameters
         ----------
-        weights : ndarray, shape (batch, post, pre)
-            Each agent's weights, changed in place.
+        weights : ndarray, shape (post, pre, batch)
+            Each agent's weights (agents last, as the compiled circuit keeps them: cells by agents),
+            changed in place.
         pre, post : ndarray, shape (pre, batch) and (post, batch)
             This step's rates of the source and target populations (cells by agents).
         gate : ndarray, shape (batch,)
@@ -115,16 +116,13 @@ class OneShotDepression(LearningRule):
                                "and sign 1")
 
     def update(self, weights: np.ndarray, pre: np.ndarray, post: np.ndarray, gate: np.ndarray) -> None:
-        learning = np.flatnonzero(gate > self.gate_threshold)
-        if learning.size == 0:
+        on = gate > self.gate_threshold
+        if not on.any():
             return
-        active = (pre[:, learning] > self.active_threshold).T  # (agents learning, pre)
-        if learning.size == weights.shape[0]:
-            changed = weights - self.rate * active[:, None, :]
-            np.maximum(changed, 0.0, out=weights)
-            return
-        changed = weights[learning] - self.rate * active[:, None, :]
-        weights[learning] = np.maximum(changed, 0.0)
+        # Agents not learning (and inactive cells) subtract exactly 0: their weights keep every bit.
+        depressed = (pre > self.active_threshold) & on  # (pre, batch)
+        changed = weights - self.rate * depressed
+        np.maximum(changed, 0.0, out=weights)
 
 
 @dataclass(frozen=True)
@@ -169,10 +167,14 @@ class ThreeFactorHebbian(LearningRule):
         learning = np.flatnonzero(gate != 0)
         if learning.size == 0:
             return
-        factor = self.rate * gate[learning]  # (agents,)
-        change = (factor[:, None] * post[:, learning].T)[:, :, None] * pre[:, learning].T[:, None, :]
-        changed = weights[learning] + change
-        weights[learning] = np.clip(changed, self.w_min, self.w_max)
+        if learning.size < gate.size:  # only the learning agents' columns
+            part = weights[:, :, learning]
+            self.update(part, pre[:, learning], post[:, learning], gate[learning])
+            weights[:, :, learning] = part
+            return
+        factor = (self.rate * gate) * post  # (post, batch)
+        change = factor[:, None, :] * pre[None, :, :]
+        np.clip(weights + change, self.w_min, self.w_max, out=weights)
 
 
 RULES = (OneShotDepression, ThreeFactorHebbian)

@@ -95,8 +95,8 @@ def test_batched_agents_learn_independently():
     assert out[0, 0] == 0.0 and out[1, 0] > 0.0
 
 
-@pytest.mark.parametrize("make", ["mb", "hebbian"])
-def test_a_batch_of_two_gives_the_numbers_of_two_single_runs(make):
+@pytest.mark.parametrize("make, batch", [("mb", 2), ("hebbian", 2), ("mb", 5), ("hebbian", 3)])
+def test_a_batch_gives_the_numbers_of_single_runs(make, batch):
     rng = np.random.default_rng(11)
     steps = 30
     if make == "mb":
@@ -104,11 +104,11 @@ def test_a_batch_of_two_gives_the_numbers_of_two_single_runs(make):
     else:
         circuit, port, gate, out, name = hebbian_circuit()[0], "x", "reward", "y", "PN->OUT"
     # Gates: on (1) at about a third of the steps for the MB; a reward in [-1, 1] for the Hebbian rule.
-    scale = 1.0 if make == "mb" else rng.uniform(-1, 1, (steps, 2, 1))
-    gates = (rng.uniform(0, 1, (steps, 2, 1)) > 0.7) * scale
-    inputs = [(rng.uniform(0.3, 1, (2, N_PN)), g) for g in gates]
-    both = circuit.compile(batch=2)
-    singles = [circuit.compile(batch=1) for _ in range(2)]
+    scale = 1.0 if make == "mb" else rng.uniform(-1, 1, (steps, batch, 1))
+    gates = (rng.uniform(0, 1, (steps, batch, 1)) > 0.7) * scale
+    inputs = [(rng.uniform(0.3, 1, (batch, N_PN)), g) for g in gates]
+    both = circuit.compile(batch=batch)
+    singles = [circuit.compile(batch=1) for _ in range(batch)]
     for x, g in inputs:
         joint = both.step({port: x, gate: g})[out]
         for agent, sim in enumerate(singles):
