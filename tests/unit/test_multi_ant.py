@@ -1,13 +1,16 @@
-"""Several ants in one MuJoCo world (backends/mujoco/swarm.py): prefixed names, ants that collide with
-each other, and per-ant reads that match a single-ant run when the ants are far apart."""
+"""Several ants in one world (backends/mujoco/swarm.py, backends/pybullet/swarm.py): prefixed names, ants
+that collide with each other, and per-ant reads that match a single-ant run when the ants are far apart."""
 
 import numpy as np
 import pytest
 
 pytest.importorskip("mujoco")
+pytest.importorskip("pybullet")
 
 import backends.mujoco.swarm as swarm  # noqa: E402
 from backends.mujoco import MujocoBackend  # noqa: E402
+from backends.pybullet import PybulletBackend  # noqa: E402
+from backends.pybullet.swarm import PybulletSwarm  # noqa: E402
 from bodies.desert_ant import desert_ant  # noqa: E402
 from bodies.gaits import make_gait  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
@@ -43,9 +46,13 @@ def test_every_ant_element_is_prefixed_and_the_world_is_not(ant):
     assert backend.read(["joint_pos"])["joint_pos"].shape == (3, len(ant.joints))
 
 
-def _push_together(ant, masks=None, steps=400):
-    """Two ants side by side 1.6 m apart, their thoraces pushed toward each other with PUSH_N for 1.6 s."""
-    backend = swarm.MujocoSwarm()
+SWARMS = {"mujoco": (swarm.MujocoSwarm, MujocoBackend), "pybullet": (PybulletSwarm, PybulletBackend)}
+
+
+def _push_together(ant, masks=None, steps=400, engine="mujoco"):
+    """Two ants side by side 1.6 m apart, their thoraces pushed toward each other with PUSH_N for 1.6 s:
+    the distances between their root frames, the deepest overlap between them, whether both touched."""
+    backend = SWARMS[engine][0]()
     if masks is not None:
         original, swarm.ant_collision_masks = swarm.ant_collision_masks, masks
     try:
@@ -59,17 +66,19 @@ def _push_together(ant, masks=None, steps=400):
         backend.apply_force(0, "thorax", (0.0, PUSH_N, 0.0))
         backend.apply_force(1, "thorax", (0.0, -PUSH_N, 0.0))
         backend.step(2)
-        y = backend.read(["body_pos"])["body_pos"][:, 1]
-        gaps.append(y[1] - y[0])
+        root = backend.read(["body_pos"])["body_pos"]
+        gaps.append(np.linalg.norm(root[1] - root[0]) * np.sign(root[1, 1] - root[0, 1]))
         overlap = max(overlap, backend.ant_overlap_m())
         touched |= bool(backend.ant_contacts().all())
     return np.array(gaps), overlap, touched
 
 
-def test_two_ants_pushed_into_each_other_do_not_interpenetrate(ant):
-    gaps, overlap, touched = _push_together(ant)
+@pytest.mark.parametrize("engine", sorted(SWARMS))
+def test_two_ants_pushed_into_each_other_do_not_interpenetrate(ant, engine):
+    gaps, overlap, touched = _push_together(ant, engine=engine)
     assert touched, "the pushed ants never touched"
-    # The thoraces stay at least two thorax radii apart; soft contacts give a few centimetres under 250 N.
+    # The thoraces stay at least two thorax radii apart (MuJoCo 0.19 m, PyBullet 0.15 m: one rides a little
+    # higher); MuJoCo's soft contacts give under 3 cm at 250 N, PyBullet's rigid ones under 1 mm.
     assert gaps.min() > 2 * THORAX_RADIUS_M
     assert overlap < 0.04
 
@@ -92,10 +101,12 @@ def test_ant_masks_touch_the_world_and_other_ants_but_not_themselves():
                 assert (contype_i & affinity_j) or (contype_j & affinity_i)
 
 
-def test_far_apart_ants_read_what_single_ant_runs_read(ant):
+@pytest.mark.parametrize("engine", sorted(SWARMS))
+def test_far_apart_ants_read_what_single_ant_runs_read(ant, engine):
     starts, yaws = [(0.0, 0.0), (20.0, 5.0)], [0.3, -2.0]
     turns = [0.0, 0.6]
-    backend = swarm.MujocoSwarm()
+    swarm_class, single_class = SWARMS[engine]
+    backend = swarm_class()
     backend.load(WORLD, [ant, ant])
     backend.reset(position_m=starts, yaw_rad=yaws)
     gaits = [make_gait("tripod", ant) for _ in starts]
@@ -105,7 +116,7 @@ def test_far_apart_ants_read_what_single_ant_runs_read(ant):
     names = ("position", "heading", "body_quat", "velocity", "joint_pos", "joint_vel")
     together = backend.read(names)
     for index, (start, yaw, turn) in enumerate(zip(starts, yaws, turns)):
-        single, gait = MujocoBackend(), make_gait("tripod", ant)
+        single, gait = single_class(), make_gait("tripod", ant)
         single.load(WORLD, [ant])
         single.reset(position_m=start, yaw_rad=yaw)
         for _ in range(125):
@@ -113,6 +124,7 @@ def test_far_apart_ants_read_what_single_ant_runs_read(ant):
             single.step(4)
         alone = single.read(names)
         assert np.linalg.norm(alone["position"][0] - start) > 0.2  # it walked
+        # MuJoCo solves both ants' contacts as one problem (differences ~1e-8 m); PyBullet gives the same bits.
         for name in names:
             np.testing.assert_allclose(together[name][index], alone[name][0], atol=1e-6, err_msg=name)
 
@@ -126,3 +138,11 @@ def test_bad_swarms_and_starts_are_refused_with_what_is_allowed(ant):
         backend.reset(position_m=[(0.0, 0.0)] * 3)
     with pytest.raises(ConfigError, match="adhesion"):
         swarm.MujocoSwarm().load(World(adhesion_n=10.0), [ant] * 2)
+    with pytest.raises(ConfigError, match="adhesion"):
+        PybulletSwarm().load(World(adhesion_n=10.0), [ant] * 2)
+    pybullet = PybulletSwarm()
+    pybullet.load(WORLD, [ant] * 2)
+    with pytest.raises(ConfigError, match=r"position_m must be"):
+        pybullet.reset(position_m=[(0.0, 0.0)] * 3)
+    with pytest.raises(ConfigError, match="no segment 'wing'"):
+        pybullet.apply_force(1, "wing", (0.0, 0.0, 1.0))
