@@ -209,9 +209,11 @@ def plot_circuit(circuit, ax=None):
     """The circuit as a diagram: populations as discs by layer, connections as arrows, a legend.
 
     Disc colour: the population's kind; disc area: its size. Arrow colour: excitatory (red, pointed
-    head), inhibitory (blue, bar head) or mixed-sign weights (grey). Self-connections are listed in
-    the corner. Every disc is a :class:`~matplotlib.patches.Circle` with gid ``node:NAME`` and every
-    arrow a :class:`~matplotlib.patches.FancyArrowPatch` with gid ``edge:SOURCE->TARGET``.
+    head), inhibitory (blue, bar head) or mixed-sign weights (grey); a plastic connection (one that
+    carries a learning rule, :mod:`neuronav.plasticity`) is dashed, and the legend names its rule.
+    Self-connections are listed in the corner. Every disc is a :class:`~matplotlib.patches.Circle`
+    with gid ``node:NAME`` and every arrow a :class:`~matplotlib.patches.FancyArrowPatch` with gid
+    ``edge:SOURCE->TARGET``.
     """
     from matplotlib.lines import Line2D
     from matplotlib.patches import Circle, FancyArrowPatch, Patch
@@ -229,7 +231,7 @@ def plot_circuit(circuit, ax=None):
                             lw=0.8, zorder=2, gid=f"node:{node}"))
         ax.text(*position[node], node, ha="center", va="center", fontsize=7, zorder=3, gid=f"label:{node}",
                 bbox=dict(boxstyle="round,pad=0.15", facecolor="white", edgecolor="none", alpha=0.6))
-    classes = []
+    classes, rules = [], []
     for source, target, data in sorted(graph.edges(data=True), key=lambda e: (e[0], e[1])):
         if source == target:
             continue
@@ -239,14 +241,19 @@ def plot_circuit(circuit, ax=None):
                                          prefer_bent=graph.has_edge(target, source))
         path = MplPath([start, control, end], [MplPath.MOVETO, MplPath.CURVE3, MplPath.CURVE3])
         head = "-[, widthB=0.8, lengthB=0.2" if kind == "inhibitory" else "-|>"
+        learning = data.get("learning")
+        if learning is not None and learning.name not in rules:
+            rules.append(learning.name)
         ax.add_patch(FancyArrowPatch(path=path, arrowstyle=head,
                                      mutation_scale=9, color=EDGE_COLOURS[kind], lw=1.0, zorder=1,
+                                     linestyle="--" if learning is not None else "-",
                                      gid=f"edge:{source}->{target}"))
     loops = sorted(s for s, t in graph.edges if s == t)
     if loops:
         ax.text(0.01, 0.01, "self-connections: " + ", ".join(loops), transform=ax.transAxes, fontsize=7)
     handles = [Patch(facecolor=KIND_COLOURS[k], edgecolor="0.3", label=k) for k in kinds]
     handles += [Line2D([], [], color=EDGE_COLOURS[c], label=c) for c in EDGE_COLOURS if c in classes]
+    handles += [Line2D([], [], color="0.3", linestyle="--", label=f"plastic: {rule}") for rule in rules]
     ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.0, 1.0), fontsize=7, title="kind / sign",
               title_fontsize=7, frameon=False)
     xy = np.array(list(position.values())) if position else np.zeros((1, 2))

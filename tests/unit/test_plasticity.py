@@ -259,3 +259,14 @@ def test_a_prefixed_copy_keeps_its_gate():
     assert merged.graph.edges["b_KC", "b_MBON"]["learning"].gate == "b_reward"
     sim = merged.compile(batch=1)
     assert sim.plastic == ["a_KC->a_MBON", "b_KC->b_MBON"]
+
+
+def test_the_circuit_diagram_dashes_a_plastic_connection_and_names_its_rule():
+    from neuronav.plotting import plot_circuit
+
+    ax = plot_circuit(mb_circuit())
+    edges = {p.get_gid(): p for p in ax.patches if (p.get_gid() or "").startswith("edge:")}
+    assert edges["edge:KC->MBON"].get_linestyle() == "--"
+    assert edges["edge:PN->KC"].get_linestyle() == "-"
+    labels = [text.get_text() for text in ax.get_legend().get_texts()]
+    assert "plastic: one-shot depression" in labels
