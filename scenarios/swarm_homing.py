@@ -11,9 +11,10 @@ within ``nest_radius_m`` of its home after the outbound phase stops (turn 0, str
 runs until every ant is home or ``homing_timeout_s`` has passed.
 
 Bodies: on ``kinematic`` each ant is a unicycle point agent (they pass through each other; the
-default 1000 ants), on ``mujoco`` each ant is the desert ant walked by its own FK tripod gait in
-one MuJoCo model (:class:`backends.mujoco.swarm.MujocoSwarm`, at most 31 ants), where the ants
-collide with each other: ``ant_contact_s`` is how long an ant touched another.
+default 1000 ants), on ``mujoco`` and ``pybullet`` each ant is the desert ant walked by its own
+FK tripod gait in one model (:class:`backends.mujoco.swarm.MujocoSwarm`, at most 31 ants;
+:class:`backends.pybullet.swarm.PybulletSwarm`), where the ants collide with each other:
+``ant_contact_s`` is how long an ant touched another.
 
 Trials and rows
 ---------------
@@ -72,7 +73,7 @@ class SwarmHomingConfig:
     foraging_turn_std: float = field(0.35, "std of the random turn command per gait cycle (clipped to [-1, 1])",
                                      min=0.0, max=10.0)
     foraging_stride_deg: float = field(15.0, "hip swing while foraging (deg)", min=0.0, max=40.0)
-    timestep_s: float = field(0.002, "mujoco: physics step (s), a whole fraction of the 8 ms control step",
+    timestep_s: float = field(0.002, "physics step (s), a whole fraction of the 8 ms control step",
                               min=1e-4, max=0.008)
 
 
@@ -106,12 +107,15 @@ class SwarmBodies:
             self.engine.load(world, [PointAgents(count=self.count, mode="unicycle")])
             self.gaits, self.physics_steps = None, 1
         else:
-            from backends.mujoco.swarm import MujocoSwarm
             from bodies.desert_ant import desert_ant
             from bodies.gaits import make_gait
 
+            if backend == "mujoco":
+                from backends.mujoco.swarm import MujocoSwarm as Swarm
+            else:
+                from backends.pybullet.swarm import PybulletSwarm as Swarm
             ant = desert_ant()
-            self.engine = MujocoSwarm(timestep_s=config.timestep_s)
+            self.engine = Swarm(timestep_s=config.timestep_s)
             self.engine.load(world, [ant] * self.count)
             self.gaits = [make_gait("tripod", ant) for _ in range(self.count)]
             self.physics_steps = integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
@@ -236,7 +240,7 @@ class SwarmHoming(Scenario):
     name = "swarm-homing"
     description = "many ants in one world, each with its own CX: scattered foraging walks, then homing"
     config_type = SwarmHomingConfig
-    backends = ("kinematic", "mujoco")
+    backends = ("kinematic", "mujoco", "pybullet")
     default_backend = "kinematic"
     timing_metrics = ("ant_seconds_per_wall_s",)
     # An ant that never gets home has no homing time; one that did not move on its way home no straightness.
@@ -246,7 +250,7 @@ class SwarmHoming(Scenario):
         return {"ants": 4, "outbound_s": 3.2, "homing_timeout_s": 3.2}
 
     def check(self, config: SwarmHomingConfig, backend: str) -> None:
-        """MuJoCo: at most 31 ants (one contact bit each) and a whole fraction of the 8 ms control step.
+        """MuJoCo: at most 31 ants (one contact bit each); physics: a whole fraction of the 8 ms control step.
 
         Raises
         ------
@@ -255,7 +259,7 @@ class SwarmHoming(Scenario):
         """
         if backend == "kinematic":
             return
-        if config.ants > MAX_PHYSICS_ANTS:
+        if backend == "mujoco" and config.ants > MAX_PHYSICS_ANTS:
             raise ConfigError(f"swarm-homing on {backend}: ants must be at most {MAX_PHYSICS_ANTS} (one contact "
                               f"bit each), got {config.ants}; e.g. --set ants=16")
         integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")

@@ -2,7 +2,8 @@
 
 ``SwarmHomingEnv(backend="kinematic", ants=4, max_cycles=150, **settings)`` runs the bodies of
 :mod:`scenarios.swarm_homing` (:class:`~scenarios.swarm_homing.SwarmBodies`: kinematic unicycles,
-or desert ants walked by their own FK tripod gaits in one MuJoCo model, colliding with each other);
+or desert ants walked by their own FK tripod gaits in one MuJoCo or PyBullet world, colliding with
+each other);
 ``settings`` are swarm-homing's (``spacing_m``, ``nest_radius_m``, ``timestep_s``, ...: the keys of
 ``neuronav run swarm-homing --set``). Agents are ``"ant_0"`` .. ``"ant_{N-1}"``.
 

@@ -36,11 +36,12 @@ def test_steering_is_eq_3_6_and_3_7_for_every_ant():
     np.testing.assert_allclose(np.degrees(stride), [5.0, 5.0 + 20.0 * 0.6, 25.0])
 
 
-@pytest.mark.parametrize("backend", ["kinematic", "mujoco"])
+@pytest.mark.parametrize("backend", ["kinematic", "mujoco", pytest.param("pybullet", marks=pytest.mark.slow)])
 def test_ants_home_from_their_foraging_walks(backend):
-    if backend == "mujoco":
-        pytest.importorskip("mujoco")
-    trials = 6 if backend == "kinematic" else 3  # two swarms of three; one on MuJoCo (a test under 10 s)
+    if backend != "kinematic":
+        pytest.importorskip(backend)
+    # Two swarms of three on kinematic, one on the engines (MuJoCo: 7 s; PyBullet, slow: 60 s, all home).
+    trials = 6 if backend == "kinematic" else 3
     result, config = short_run(backend, trials=trials)
     rows = result.trials
     assert [(row["swarm"], row["ant"]) for row in rows] == [(0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)][:trials]
@@ -55,6 +56,16 @@ def test_ants_home_from_their_foraging_walks(backend):
     straightness = np.array([row["straightness"] for row in rows])
     assert ((straightness > 0) & (straightness <= 1))[np.isfinite(straightness)].all()
     assert result.timeseries["swarm_position_m"].shape[:2] == (1, 3)
+
+
+def test_a_short_pybullet_swarm_runs_and_reports_every_ant():
+    pytest.importorskip("pybullet")
+    result, config = short_run("pybullet", trials=2, ants=2, outbound_s=1.28, homing_timeout_s=1.28)
+    assert [row["ant"] for row in result.trials] == [0, 1]
+    for row in result.trials:
+        assert row["status"] == "ok" and row["ant_contact_s"] == 0.0  # 8 m apart: they never meet
+        assert 0.1 < row["home_distance_m"] < 2.0  # it walked, at most ~0.5 m/s for 1.28 s plus the start
+    assert np.isfinite(result.timeseries["swarm_position_m"][0, :, :3]).all()
 
 
 def test_a_trial_run_alone_gives_the_row_it_has_in_the_whole_swarm():
