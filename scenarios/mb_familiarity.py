@@ -21,7 +21,15 @@ Measurements:
   (the area under the ROC curve, ties counted half).
 
 Run ``python -m scenarios.mb_familiarity`` (prints the numbers, writes ``mb_capacity.png`` and
-``mb_rotational.png`` into ``--out``); ``tests/unit/test_mushroom_body.py`` keeps them true.
+``mb_rotational.png`` into ``--out``); ``tests/unit/test_mushroom_body.py`` keeps them true
+(its slow tests run the full measurements). Measured with the defaults (forest seed 1, 4000 KCs,
+KC wiring seed 0, 100 test points):
+
+- rotational familiarity, 100 views stored (10 m of route): the least novel heading lies within
+  ±15° of the route's at 99 % of the midpoints (median offset 0°);
+- capacity: 10 / 100 / 1000 views stored: on-route median novelty 0 / 1 / 0 active KCs with
+  intact weights, off-route 101 / 67 / 16; discrimination (AUC) 1.000 / 1.000 / 0.980; KC→MBON
+  weights at 0: 4.5 / 20.8 / 58.5 %.
 """
 
 from __future__ import annotations

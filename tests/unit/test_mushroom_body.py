@@ -151,3 +151,16 @@ def test_capacity_short():
         assert results[n]["auc"] > 0.9
         assert np.median(results[n]["on"]) < np.median(results[n]["off"])
     assert results[10]["depressed"] < results[50]["depressed"]
+
+
+@pytest.mark.slow
+def test_capacity_of_10_100_and_1000_views():
+    """Measured (seed 1, 100 test points): AUC 1.000, 1.000, 0.980; KC weights at 0: 4.5, 20.8, 58.5 %."""
+    results = mbf.capacity(stored=(10, 100, 1000), tests=100)
+    assert results[10]["auc"] >= 0.99 and results[100]["auc"] >= 0.99
+    assert 0.9 <= results[1000]["auc"] <= results[100]["auc"]
+    depressed = [results[n]["depressed"] for n in (10, 100, 1000)]
+    assert depressed == sorted(depressed) and depressed[-1] < 0.9
+    # Off-route novelty falls as the memory fills; on-route views stay familiar.
+    assert np.median(results[1000]["off"]) < np.median(results[10]["off"])
+    assert max(np.median(results[n]["on"]) for n in (10, 100, 1000)) <= 2.0
