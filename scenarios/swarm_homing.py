@@ -22,8 +22,10 @@ A run's rows are ants: trial i (seed s = seed + i) is ant ``s mod ants`` of swar
 and a swarm's every number follows from its index and the settings alone, so any trial re-run
 alone, in any chunk or batch, gives the same row. ``--trials N --set ants=N`` (seed 0) gives one
 swarm with one ``trials.csv`` row per ant; fewer trials simulate the whole swarm all the same and
-report the first rows. ``swarm_position_m`` holds the trajectories of the first trial's whole
-swarm, which ``swarm_trajectories.png`` draws.
+report the first rows. Each chunk of a run (``--chunk-size``, workers) simulates its swarms again:
+the rows do not change, the time does; one chunk (the default with one worker) simulates each once.
+``swarm_position_m`` holds the trajectories of the first trial's whole swarm, which
+``swarm_trajectories.png`` draws.
 
 Metrics per ant: ``success`` (came within ``nest_radius_m`` of home after the outbound phase),
 ``homing_time_s`` (NaN if never), ``closest_distance_m``, ``home_distance_m`` (at the turn back),
