@@ -146,3 +146,23 @@ def test_bad_swarms_and_starts_are_refused_with_what_is_allowed(ant):
         pybullet.reset(position_m=[(0.0, 0.0)] * 3)
     with pytest.raises(ConfigError, match="no segment 'wing'"):
         pybullet.apply_force(1, "wing", (0.0, 0.0, 1.0))
+
+
+@pytest.mark.parametrize("engine", sorted(SWARMS))
+def test_reads_have_the_agent_axis_first_like_the_kinematic_backend(ant, engine):
+    from backends.kinematic import KinematicBackend
+
+    backend = SWARMS[engine][0]()
+    backend.load(WORLD, [ant] * 3)
+    assert backend.capabilities.batched and backend.batch == 3
+    specs = {spec.name: spec for spec in backend.capabilities.sensors}
+    readings = backend.read(list(specs))
+    for name, spec in specs.items():
+        assert readings[name].shape == (3, *spec.shape), name
+    # The point agents' ports the CX reads have the same per-agent shapes: batch=N binds alike.
+    for spec in KinematicBackend.capabilities.sensors:
+        if spec.name in ("heading", "position", "velocity"):
+            assert specs[spec.name].shape == spec.shape
+    # The default starts: a row 2 m apart along +x, facing +x (heading pi/2 clockwise from +y).
+    np.testing.assert_allclose(readings["position"], [[0.0, 0.0], [2.0, 0.0], [4.0, 0.0]], atol=1e-9)
+    np.testing.assert_allclose(readings["heading"], np.pi / 2, atol=1e-9)
