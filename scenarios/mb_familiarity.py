@@ -121,8 +121,10 @@ def memory(world_views: np.ndarray, n_kc: int = 4000, seed: int = 0, batch: int 
 def rotational_familiarity(views: int = 100, tests: int = 50, seed: int = 1, n_kc: int = 4000) -> dict:
     """Store ``views`` route views; at up to ``tests`` midpoints the novelty at every roll.
 
-    Returns a dict: ``roll_deg`` (R,), ``novelty`` (tests, R), ``best_deg`` (tests,) the roll of least
-    novelty (the first one in roll order on ties), ``within`` the fraction within ±15°.
+    Returns a dict: ``offset_deg`` (R,) the heading offsets from the route's heading (positive: turned
+    right; rolling the panorama by k columns is turning right by -k x 5°), ``novelty`` (tests, R),
+    ``best_deg`` (tests,) the offset of least novelty (the first in roll order on ties), ``within``
+    the fraction within ±15°.
     """
     points, headings = route(views + 1)
     world = forest_world(points, seed=seed)
@@ -132,9 +134,9 @@ def rotational_familiarity(views: int = 100, tests: int = 50, seed: int = 1, n_k
     images = panoramas(world, mid_points[2 * mids + 1], mid_headings[2 * mids + 1])
     codes = rotated_codes(images)
     values = novelty(sim, codes.reshape(-1, codes.shape[2])).reshape(codes.shape[:2])
-    roll_deg = np.arange(-images.shape[2] // 2, images.shape[2] // 2) * 360.0 / images.shape[2]
-    best = roll_deg[np.argmin(values, axis=1)]
-    return {"roll_deg": roll_deg, "novelty": values, "best_deg": best,
+    offset_deg = -np.arange(-images.shape[2] // 2, images.shape[2] // 2) * 360.0 / images.shape[2]
+    best = offset_deg[np.argmin(values, axis=1)]
+    return {"offset_deg": offset_deg, "novelty": values, "best_deg": best,
             "within": float(np.mean(np.abs(best) <= TOLERANCE_DEG))}
 
 
@@ -180,12 +182,13 @@ def plot(rotation: dict, capacities: dict, out: Path) -> list[Path]:
     from neuronav.plotting import new_figure, save
 
     fig, ax = new_figure((6.0, 3.5))
-    values = rotation["novelty"]
+    order = np.argsort(rotation["offset_deg"])
+    offset, values = rotation["offset_deg"][order], rotation["novelty"][:, order]
     for row in values:
-        ax.plot(rotation["roll_deg"], row, color="0.7", lw=0.6)
-    ax.plot(rotation["roll_deg"], np.median(values, axis=0), color="C3", lw=2, label="median")
+        ax.plot(offset, row, color="0.7", lw=0.6)
+    ax.plot(offset, np.median(values, axis=0), color="C3", lw=2, label="median")
     ax.axvspan(-TOLERANCE_DEG, TOLERANCE_DEG, color="C2", alpha=0.15, label="±15°")
-    ax.set_xlabel("heading offset from the route (°)")
+    ax.set_xlabel("heading offset from the route (°, + right)")
     ax.set_ylabel("MBON novelty (active KCs, intact weights)")
     ax.set_title(f"rotational familiarity: minimum within ±15° at {100 * rotation['within']:.0f} % of positions")
     ax.legend(fontsize=7)

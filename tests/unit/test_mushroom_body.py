@@ -164,3 +164,12 @@ def test_capacity_of_10_100_and_1000_views():
     # Off-route novelty falls as the memory fills; on-route views stay familiar.
     assert np.median(results[1000]["off"]) < np.median(results[10]["off"])
     assert max(np.median(results[n]["on"]) for n in (10, 100, 1000)) <= 2.0
+
+
+def test_turning_right_by_10_degrees_rolls_the_panorama_two_columns_left():
+    """The sign behind ``offset_deg``: a turn on the spot is a roll of the panorama (module doc)."""
+    points, _ = mbf.route(20)
+    world = mbf.forest_world(points, seed=3)
+    images = mbf.panoramas(world, np.zeros((2, 2)), np.array([0.3, 0.3 + np.radians(10.0)]))
+    assert np.abs(np.roll(images[0], -2, axis=1) - images[1]).mean() < 1e-3
+    assert np.abs(np.roll(images[0], 2, axis=1) - images[1]).mean() > 0.01
