@@ -1,6 +1,8 @@
 """The Gymnasium environments (scenarios/envs/gym_env.py): every registered id passes Gymnasium's checker
 on every installed backend that carries it, seeded resets repeat, rewards follow the goal, vector envs run."""
 
+import subprocess
+import sys
 import warnings
 
 import gymnasium
@@ -40,6 +42,15 @@ def cases():
 def test_the_three_tasks_are_registered():
     assert {"neuronav/AntHoming-v0", "neuronav/AntBeacon-v0", "neuronav/AntPlume-v0"} <= set(IDS)
     assert "kinematic" in INSTALLED
+
+
+def test_make_with_the_module_prefix_needs_no_import():
+    """Gymnasium 1.x loads no plugin entry points; ``"scenarios.envs:ID"`` imports the package itself."""
+    code = ("import gymnasium; env = gymnasium.make('scenarios.envs:neuronav/AntHoming-v0'); "
+            "print(sorted(env.reset(seed=0)[0]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "['heading', 'home_vector', 'velocity']"
 
 
 @pytest.mark.parametrize(("env_id", "backend", "mode"), list(cases()))
