@@ -1,0 +1,293 @@
+"""Route following by visual familiarity: a mushroom body learns a route's views, then steers the ant along it.
+
+After Ardin et al. 2016, Baddeley et al. 2012 and Kodzhabashev & Mangan 2015 (``docs/parameters.md`` §7).
+Each trial grows a seeded forest about a fixed meandering route (:mod:`scenarios.mb_familiarity`:
+a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` long).
+
+1. **Training**: the ant walks the route under guidance (pure pursuit of the route point 1 m ahead
+   of the nearest one) and, once per gait cycle (0.64 s), stores its panoramic view in the mushroom
+   body (:func:`brains.mushroom_body.mushroom_body`, panorama code, learning on).
+2. **Test**: the ant is put back at the route's start (displaced ``release_offset_m`` to the right
+   of it for a catchment test), facing the route's first heading, and only the mushroom body
+   steers, once per gait cycle, by ``strategy``:
+
+   - ``scan``: the panorama is judged at headings within ±``scan_deg`` in 10° steps (the view
+     turned on the spot is the panorama rolled by whole columns); the ant turns toward the least
+     novel one: turn θ = clip(−offset / 45°, −1, 1) (θ > 0 turns left), stride 20°;
+   - ``klinokinesis``: the ant turns alternately left and right by θ = ±min(1, 2 · novelty / active
+     KCs), stride 20°: straight where the view is familiar, zig-zagging where it is novel.
+
+Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came
+within ``reach_m`` of, the mean and maximum distance of the test path from the route, success (the
+last checkpoint reached), the views stored. The kinematic backend's eyes are the ant's panoramic
+camera at one ray per pixel; the physics backends render the ant's own camera.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from bodies.desert_ant import desert_ant
+from brains.mushroom_body import PANORAMA_COLUMNS, PANORAMA_ROWS, kc_sparsity, mushroom_body, novelty, panorama_code
+from neuronav import registry
+from neuronav.config import field
+from neuronav.loop import AgentLoop, Clocks
+from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.world import PointAgents
+from scenarios import EVERY_BACKEND
+from scenarios.mb_familiarity import SPACING_M, forest_world, panoramas, route
+from scenarios.trial_loop import pack_cycle_logs
+from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
+
+STRIDE_RAD = np.radians(20.0)
+LOOKAHEAD_M = 1.0
+SCAN_STEP_COLUMNS = 2  # 10° of the 72-column panorama
+LOG_KEYS = ("time_s", "heading_rad", "novelty", "turn", "kc_active")
+
+
+@dataclass
+class RouteFollowingConfig:
+    strategy: str = field("scan", "how the mushroom body steers: scan (turn toward the least novel of several "
+                          "headings) or klinokinesis (zig-zag, wider where the view is novel)",
+                          choices=("scan", "klinokinesis"))
+    route_m: float = field(10.0, "length of the trained route (m)", min=2.0, max=100.0)
+    release_offset_m: float = field(0.0, "test release this far right (+) or left (-) of the route's start (m)",
+                                    min=-10.0, max=10.0)
+    duration_s: float = field(60.0, "test time limit (s)", min_exclusive=0.0, max=3600.0)
+    scan_deg: float = field(60.0, "scan: headings judged within ± this of the current one (deg)", min=10.0,
+                            max=180.0)
+    n_kc: int = field(4000, "Kenyon cells", min=100, max=40000)
+    checkpoint_every_m: float = field(1.0, "route checkpoints this far apart (m)", min=0.1, max=10.0)
+    reach_m: float = field(0.5, "a checkpoint is reached within this distance (m)", min_exclusive=0.0, max=5.0)
+    landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
+    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
+                              min=1e-4, max=0.008)
+
+
+def wrap_rad(angle):
+    """Angles wrapped to [-π, π)."""
+    return (np.asarray(angle, float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def make_route_engine(backend_name: str, timestep_s: float):
+    """(engine, body, gait, physics step): the ant on a physics backend, or the kinematic unicycle with
+    the ant's panoramic camera at one ray per pixel (the supersampled one costs 16x the rays)."""
+    if backend_name != "kinematic":
+        return make_engine(backend_name, timestep_s)
+    camera = next(c for c in point_agent_cameras(desert_ant()) if c.name == "panorama")
+    body = PointAgents(count=1, mode="unicycle", cameras=(replace(camera, supersample=1),))
+    return registry.load("backend", "kinematic")(timestep_s=CONTROL_S), body, None, CONTROL_S
+
+
+class RouteMemory:
+    """The mushroom body of one ant: a learner (batch 1) and a judge (one agent per scanned heading)."""
+
+    def __init__(self, config: RouteFollowingConfig, seed: int) -> None:
+        circuit = mushroom_body(n_pn=PANORAMA_ROWS * PANORAMA_COLUMNS, n_kc=config.n_kc, seed=seed)
+        self.circuit = circuit
+        steps = int(config.scan_deg // (SCAN_STEP_COLUMNS * 5.0))
+        self.rolls = np.arange(-steps, steps + 1) * SCAN_STEP_COLUMNS  # columns
+        self.learner = circuit.compile(batch=1)
+        self.judge = circuit.compile(batch=len(self.rolls))
+        self.views = 0
+
+    def learn(self, panorama: np.ndarray) -> None:
+        self.learner.step({"pn": panorama_code(panorama), "learning": np.ones((1, 1))})
+        self.views += 1
+
+    def freeze(self) -> None:
+        """Give the judge the learnt weights (every scanned heading judged by the same memory)."""
+        self.judge.set_weights("KC->MBON", self.learner.weights("KC->MBON"))
+
+    def scan(self, panorama: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Heading offsets (deg, + right), their novelty, and the share of KCs active looking ahead."""
+        codes = np.concatenate([panorama_code(np.roll(panorama, k, axis=-1)) for k in self.rolls])
+        values = novelty(self.judge, codes)
+        ahead = int(np.flatnonzero(self.rolls == 0)[0])
+        return -self.rolls * 5.0, values, float(kc_sparsity(self.judge)[ahead])
+
+
+class GuidedLearning:
+    """Training steering: pure pursuit along the route, one view stored per gait cycle."""
+
+    def __init__(self, route_m: np.ndarray, memory: RouteMemory) -> None:
+        self.route_m, self.memory = route_m, memory
+        self.positions: list[np.ndarray] = []
+        self.done = False
+
+    def __call__(self, loop: AgentLoop) -> tuple[float, float]:
+        sensed = loop.backend.read(("position", "heading", "panorama"))
+        position, heading = sensed["position"][0], float(sensed["heading"][0, 0])
+        self.positions.append(position.copy())
+        self.memory.learn(sensed["panorama"])
+        nearest = int(np.argmin(np.hypot(*(self.route_m - position).T)))
+        target = self.route_m[min(nearest + int(round(LOOKAHEAD_M / SPACING_M)), len(self.route_m) - 1)]
+        desired = np.arctan2(target[0] - position[0], target[1] - position[1])
+        error = float(wrap_rad(desired - heading))  # positive: the target lies to the right
+        self.done = nearest >= len(self.route_m) - 1 or np.hypot(*(self.route_m[-1] - position)) < 0.3
+        return float(np.clip(-error / np.radians(45.0), -1.0, 1.0)), STRIDE_RAD
+
+
+class FamiliaritySteering:
+    """Test steering: the mushroom body alone, by scanning or by klinokinesis."""
+
+    def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float) -> None:
+        self.strategy, self.memory, self.route_m, self.reach_m = strategy, memory, route_m, reach_m
+        self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
+        self.log["position_m"] = []
+        self.side = 1.0
+
+    def __call__(self, loop: AgentLoop) -> tuple[float, float]:
+        sensed = loop.backend.read(("position", "heading", "panorama"))
+        offsets, values, active = self.memory.scan(sensed["panorama"])
+        ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+        if self.strategy == "scan":
+            turn = float(np.clip(-offsets[int(np.argmin(values))] / 45.0, -1.0, 1.0))
+        else:
+            kcs = max(active * self.memory.learner.rates("KC").shape[1], 1.0)
+            self.side = -self.side
+            turn = self.side * min(1.0, 2.0 * ahead / kcs)
+        for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
+                           ("turn", turn), ("kc_active", active)):
+            self.log[key].append(float(value))
+        self.log["position_m"].append(sensed["position"][0].copy())
+        return turn, STRIDE_RAD
+
+    def arrived(self, loop: AgentLoop) -> bool:
+        """Within ``reach_m`` of the route's end (checked every control step)."""
+        position = loop.backend.read(("position",))["position"][0]
+        return bool(np.hypot(*(position - self.route_m[-1])) < self.reach_m)
+
+
+def release_point(points: np.ndarray, headings: np.ndarray, offset_m: float) -> np.ndarray:
+    """The route's start moved ``offset_m`` to the right of its first heading (negative: left)."""
+    h = headings[0]
+    return points[0] + offset_m * np.array([np.cos(h), -np.sin(h)])
+
+
+def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
+                landscape: bool = False) -> tuple[dict, dict]:
+    """One trial: train along the route, test from the release point; the metrics row and the logs."""
+    points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
+    world = forest_world(points, seed=seed)
+    engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s)
+    memory = RouteMemory(config, seed)
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
+    steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m)
+    with engine:
+        engine.load(world, [body])
+        guide = GuidedLearning(points, memory)
+        training = AgentLoop(engine, gait, clocks, steering=guide)
+        training.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
+        training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
+        memory.freeze()
+        test = AgentLoop(engine, gait, clocks, steering=steering)
+        start = release_point(points, headings, config.release_offset_m)
+        test.reset(seed=seed, position_m=tuple(start), yaw_rad=np.pi / 2 - headings[0])
+        test.run(config.duration_s, until=steering.arrived)
+        final = engine.read(("position",))["position"][0]
+        test_time_s = test.time_s
+    log = {k: np.array(v, float) for k, v in steering.log.items() if k != "position_m"}
+    log["position_m"] = np.array([*steering.log["position_m"], final]).reshape(-1, 2)
+    log["train_position_m"] = np.array(guide.positions).reshape(-1, 2)
+    if landscape:
+        log.update(familiarity_landscape(memory, world, points, headings))
+    return route_metrics(log["position_m"], points, config, memory.views, test_time_s), log
+
+
+def route_metrics(path_m: np.ndarray, points: np.ndarray, config: RouteFollowingConfig, views: int,
+                  test_time_s: float) -> dict:
+    """Checkpoints reached, distances from the route, success (the last checkpoint reached).
+
+    The path (one position per gait cycle) is taken as straight between its points, sampled every
+    5 cm, so that a checkpoint passed between two looks counts.
+    """
+    path_m = densify(path_m, 0.05)
+    every = max(1, int(round(config.checkpoint_every_m / SPACING_M)))
+    checkpoints = points[every::every]
+    if not len(checkpoints) or not np.array_equal(checkpoints[-1], points[-1]):
+        checkpoints = np.vstack([checkpoints.reshape(-1, 2), points[-1]])
+    to_checkpoint = np.hypot(*(checkpoints[:, None, :] - path_m[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    reached = to_checkpoint <= config.reach_m
+    from_route = np.hypot(*(path_m[:, None, :] - points[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    return {
+        "success": bool(reached[-1]), "status": "ok", "error": "",
+        "checkpoints_reached": float(reached.mean()),
+        "mean_distance_m": float(from_route.mean()),
+        "max_distance_m": float(from_route.max()),
+        "final_distance_to_goal_m": float(np.hypot(*(path_m[-1] - points[-1]))),
+        "views_stored": float(views),
+        "test_time_s": float(test_time_s),
+    }
+
+
+def densify(path_m: np.ndarray, step_m: float) -> np.ndarray:
+    """The polyline ``path_m`` (P, 2) with points added so that none lies more than ``step_m`` apart."""
+    pieces = [path_m[:1]]
+    for a, b in zip(path_m[:-1], path_m[1:]):
+        count = max(1, int(np.ceil(np.hypot(*(b - a)) / step_m)))
+        pieces.append(a + (b - a) * (np.arange(1, count + 1) / count)[:, None])
+    return np.concatenate(pieces)
+
+
+def familiarity_landscape(memory: RouteMemory, world, points: np.ndarray, headings: np.ndarray,
+                          shape=(9, 13), margin_m: float = 3.0) -> dict:
+    """Relative novelty (novelty / active KCs; NaN where no KC fires, e.g. inside a tree's crown) on a
+    grid about the route, each point facing the heading of its nearest route point (ray cast with the
+    kinematic backend's eyes)."""
+    low, high = points.min(axis=0) - margin_m, points.max(axis=0) + margin_m
+    xs, ys = np.linspace(low[0], high[0], shape[1]), np.linspace(low[1], high[1], shape[0])
+    grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    nearest = np.argmin(np.hypot(*(grid[:, None, :] - points[None, :, :]).transpose(2, 0, 1)), axis=1)
+    codes = panorama_code(panoramas(world, grid, headings[nearest]))
+    values = novelty(memory.judge, codes)
+    active = novelty(memory.circuit.compile(batch=memory.judge.batch), codes)  # nothing learnt: every active KC
+    relative = np.divide(values, active, out=np.full_like(values, np.nan), where=active > 0)
+    return {"landscape_x_m": xs, "landscape_y_m": ys, "landscape_novelty": relative.reshape(shape)}
+
+
+class RouteFollowing(Scenario):
+    """Learn a route's views with the mushroom body, then follow it by familiarity alone."""
+
+    name = "route-following"
+    description = ("learn a forest route's views in one guided walk (mushroom body), then follow it by "
+                   "familiarity: scanning or klinokinesis; displaced releases give the catchment")
+    config_type = RouteFollowingConfig
+    backends = EVERY_BACKEND
+    default_backend = "kinematic"
+
+    def smoke_config(self) -> dict:
+        return {"route_m": 2.0, "duration_s": 4.0, "n_kc": 500, "landscape": False}
+
+    def check(self, config: RouteFollowingConfig, backend: str) -> None:
+        from neuronav.loop import integer_ratio
+
+        if backend != "kinematic":
+            integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
+
+    def run(self, config: RouteFollowingConfig, *, backend: str, trials: int, seed: int,
+            video_path: Path | None = None) -> ScenarioResult:
+        rows, logs = [], []
+        for i in range(trials):
+            row, log = route_trial(config, backend, seed + i, landscape=(i == 0 and config.landscape
+                                                                         and backend == "kinematic"))
+            rows.append(dict(row, trial=i, seed=seed + i))
+            logs.append(log)
+        timeseries = pack_cycle_logs(logs, LOG_KEYS)
+        longest = max(len(log["train_position_m"]) for log in logs)
+        timeseries["train_position_m"] = np.full((len(logs), longest, 2), np.nan)
+        for i, log in enumerate(logs):
+            timeseries["train_position_m"][i, :len(log["train_position_m"])] = log["train_position_m"]
+        timeseries["route_m"] = route(int(round(config.route_m / SPACING_M)) + 1)[0][None]
+        if "landscape_novelty" in logs[0]:
+            for key in ("landscape_x_m", "landscape_y_m", "landscape_novelty"):
+                timeseries[key] = logs[0][key][None]  # the first trial's, with a trial axis of one
+        return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=config.duration_s)
+
+    def figures(self, result: ScenarioResult, config: RouteFollowingConfig, out_dir: Path) -> list[Path]:
+        from scenarios.route_following_figures import write_route_figures
+
+        return write_route_figures(result, config, Path(out_dir))

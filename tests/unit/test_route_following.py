@@ -1,0 +1,89 @@
+"""Route following by mushroom-body familiarity (scenarios/route_following.py) on the kinematic unicycle."""
+
+import numpy as np
+import pytest
+
+from neuronav.config import apply_overrides
+from neuronav.errors import ConfigError
+from scenarios.mb_familiarity import route
+from scenarios.route_following import (
+    RouteFollowing,
+    RouteFollowingConfig,
+    release_point,
+    route_metrics,
+    route_trial,
+)
+
+
+def test_metrics_of_a_path_along_the_route_and_of_one_beside_it():
+    points, headings = route(51)  # 5 m
+    config = RouteFollowingConfig(route_m=5.0)
+    on = route_metrics(points[::3].copy(), points, config, views=8, test_time_s=12.0)
+    assert on["success"] and on["checkpoints_reached"] == 1.0
+    assert on["mean_distance_m"] < 0.05 and on["max_distance_m"] < 0.06  # chords of the curve
+    beside = points + np.array([0.0, 2.0])  # 2 m north of the route everywhere
+    off = route_metrics(beside, points, config, views=8, test_time_s=12.0)
+    assert not off["success"] and off["checkpoints_reached"] < 0.5
+    assert 0.5 < off["mean_distance_m"] <= 2.0
+
+
+def test_release_point_lies_to_the_right_of_the_first_heading():
+    points, headings = route(11)
+    right = release_point(points, headings, 1.0)
+    forward = np.array([np.sin(headings[0]), np.cos(headings[0])])
+    step = right - points[0]
+    assert np.isclose(np.hypot(*step), 1.0) and abs(step @ forward) < 1e-12
+    assert forward[0] * step[1] - forward[1] * step[0] < 0  # clockwise of forward: to the right
+
+
+def test_scanning_follows_a_trained_route():
+    """Measured (seed 1): all checkpoints of a 5 m route reached, within 0.5 m of it."""
+    config = RouteFollowingConfig(strategy="scan", route_m=5.0, duration_s=30.0, n_kc=2000, landscape=False)
+    row, log = route_trial(config, "kinematic", seed=1)
+    assert row["views_stored"] >= 10
+    assert row["success"] and row["checkpoints_reached"] == 1.0
+    assert row["max_distance_m"] < 1.0
+    assert np.all(np.isfinite(log["novelty"]))
+
+
+def test_without_a_memory_the_scan_does_not_follow_the_route():
+    """The control: a mushroom body that learnt nothing finds every heading equally novel and walks off."""
+    config = RouteFollowingConfig(strategy="scan", route_m=5.0, duration_s=15.0, n_kc=2000, landscape=False)
+    import scenarios.route_following as rf
+
+    class Forgetful(rf.RouteMemory):
+        def learn(self, panorama):
+            self.views += 1
+
+    original = rf.RouteMemory
+    rf.RouteMemory = Forgetful
+    try:
+        row, _ = route_trial(config, "kinematic", seed=1)
+    finally:
+        rf.RouteMemory = original
+    assert not row["success"]
+
+
+def test_bad_settings_are_refused():
+    with pytest.raises(ConfigError):
+        apply_overrides(RouteFollowingConfig, {"strategy": "run"})
+    with pytest.raises(ConfigError):
+        apply_overrides(RouteFollowingConfig, {"route_m": 0.5})
+    RouteFollowing().check(RouteFollowingConfig(), "kinematic")
+
+
+def test_run_and_figures(tmp_path):
+    scenario = RouteFollowing()
+    config = RouteFollowingConfig(route_m=3.0, duration_s=12.0, n_kc=1000, landscape=True)
+    result = scenario.run(config, backend="kinematic", trials=1, seed=2)
+    assert result.timeseries["landscape_novelty"].shape == (1, 9, 13)
+    assert result.timeseries["route_m"].shape == (1, 31, 2)
+    paths = scenario.figures(result, config, tmp_path)
+    assert {p.name for p in paths} == {"route_paths.png", "familiarity_landscape.png"}
+    # The landscape is most familiar along the route: its minimum lies within 1.5 m of it.
+    grid = result.timeseries
+    relative = grid["landscape_novelty"][0]
+    assert np.nanmax(relative) <= 1.0 and np.nanmin(relative) >= 0.0
+    row, column = np.unravel_index(np.nanargmin(relative), (9, 13))
+    at = np.array([grid["landscape_x_m"][0][column], grid["landscape_y_m"][0][row]])
+    assert np.hypot(*(grid["route_m"][0] - at).T).min() < 1.5
