@@ -52,8 +52,9 @@ GOAL_AMPLITUDE = 0.15
 # Embodied CX (the path-integration scenario's i2bot protocol): gain per gait cycle, rate noise.
 MEMORY_GAIN = 0.04
 CX_NOISE = 0.0008
-# decode_home_vector's distance per metre walked at MEMORY_GAIN, straight outbound walks of 10 and 20 m
-# at 0.29 m per cycle (2.0 and 2.1; 1.4 after 2 m, 1.7 after 40 m as the memory saturates).
+# decode_home_vector's distance per metre walked at MEMORY_GAIN: straight walks at 0.29 m per cycle, 24
+# headings, decode to 9.7–10.2 m for 10 m and 20.4–21.5 m for 20 m (direction within 10.5°); 1.4 per
+# metre after 2 m and 1.7 after 40 m, as the memory saturates (tests/unit/test_cue_integration.py).
 DECODED_PER_M = 2.0
 
 

@@ -14,7 +14,7 @@ from neuronav.config import apply_overrides
 from neuronav.runner import load_scenario, run_trials
 from scenarios.cue_integration import CueIntegrationConfig
 
-BACKENDS = ("kinematic", "mujoco", "pybullet")
+BACKENDS = ("kinematic", "mujoco", "dm_control", "pybullet")
 
 
 def run(backend: str, trials: int, **overrides):

@@ -10,9 +10,16 @@ from brains.visual_homing import homing_direction, ridf, skyline_view
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
 from neuronav.runner import load_scenario, run_trials
-from scenarios.cue_integration import CueIntegrationConfig, crossing_bearing, cue_world, take_snapshots
+from scenarios.cue_integration import (
+    CueIntegrationConfig,
+    charge_home_vector,
+    crossing_bearing,
+    cue_world,
+    take_snapshots,
+)
 from scenarios.cue_integration_brain import (
     TOTAL_AMPLITUDE,
+    CueBrain,
     cue_amplitudes,
     goal_pattern,
     goal_steering,
@@ -95,6 +102,18 @@ def test_goal_steering_turns_toward_the_goal():
     imbalance = cpu1[:, 8:].sum(axis=1) - cpu1[:, :8].sum(axis=1)
     np.testing.assert_allclose(imbalance, -1.27 * np.sin(errors), atol=0.13)
     assert np.all(np.sign(imbalance[[0, 1, 2, 4, 5, 6]]) == -np.sign(errors[[0, 1, 2, 4, 5, 6]]))
+
+
+def test_home_vector_length_in_metres_from_a_straight_outbound_walk():
+    """DECODED_PER_M = 2: a 10 m straight walk (0.29 m per gait cycle) decodes to 9.4–10.2 m, its direction
+    within 11° (the 8-column code's bias, which depends on the heading)."""
+    config = CueIntegrationConfig()
+    brain = CueBrain(config, np.zeros((1, 9, 72)), seeds=[0, 1])
+    charge_home_vector(brain, np.array([0.3, 0.3]), 10.0)
+    direction, length_m, reliability = brain.pi_cue()
+    np.testing.assert_allclose(length_m, 10.0, rtol=0.08)
+    np.testing.assert_allclose(reliability, length_m / config.pi_full_m)
+    assert np.abs(wrap_deg(direction - 0.3)).max() < 11.0
 
 
 # ---- visual homing (RIDF) -------------------------------------------------------------------------------
