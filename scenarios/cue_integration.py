@@ -37,6 +37,7 @@ one ant per trial. The kinematic batch renders its panoramas with one ray per pi
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -182,8 +183,6 @@ def start_brain(config: CueIntegrationConfig, snapshots: np.ndarray, seeds, setu
 
 def run_kinematic(config: CueIntegrationConfig, trials: int, seed: int) -> tuple[list[dict], dict]:
     """Every trial at once: one batch of point agents carrying the ant's panoramic camera."""
-    import time
-
     started = time.perf_counter()
     world = cue_world(config)
     seeds = [seed + i for i in range(trials)]
@@ -228,8 +227,6 @@ def run_kinematic(config: CueIntegrationConfig, trials: int, seed: int) -> tuple
 def physics_trial(config: CueIntegrationConfig, backend_name: str, snapshots: np.ndarray, seed: int,
                   video_path=None) -> tuple[dict, dict]:
     """One ant on a physics backend: released at the origin of a world moved so the nest is where it belongs."""
-    import time
-
     started = time.perf_counter()
     setup = trial_setup(config, seed)
     release = setup["release_m"]
