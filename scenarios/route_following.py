@@ -5,15 +5,15 @@ Each trial grows a seeded forest about a fixed meandering route (:mod:`scenarios
 a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` long).
 
 1. **Training**: the ant walks the route under guidance (pure pursuit of the route point 1 m ahead
-   of the nearest one) and, once per gait cycle (0.64 s), stores its panoramic view in the mushroom
-   body (:func:`brains.mushroom_body.mushroom_body`, panorama code, learning on).
+   of the nearest one) and, ``views_per_cycle`` times per gait cycle (0.64 s), stores its panoramic
+   view in the mushroom body (:func:`brains.mushroom_body.mushroom_body`, panorama code, learning on).
 2. **Test**: the ant is put back at the route's start (displaced ``release_offset_m`` to the right
    of it for a catchment test), facing the route's first heading, and only the mushroom body
    steers, once per gait cycle, by ``strategy``:
 
    - ``scan``: the panorama is judged at headings within ±``scan_deg`` in 10° steps (the view
      turned on the spot is the panorama rolled by whole columns); the ant turns toward the least
-     novel one: turn θ = clip(−offset / 45°, −1, 1) (θ > 0 turns left), stride 20°;
+     novel one: turn θ = clip(−offset / 30°, −1, 1) (θ > 0 turns left), stride 20°;
    - ``klinokinesis``: the ant turns alternately left and right by θ = ±min(1, 2 · novelty / active
      KCs), stride 20°: straight where the view is familiar, zig-zagging where it is novel.
 
@@ -45,6 +45,8 @@ from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_
 STRIDE_RAD = np.radians(20.0)
 LOOKAHEAD_M = 1.0
 SCAN_STEP_COLUMNS = 2  # 10° of the 72-column panorama
+SCAN_FULL_TURN_DEG = 30.0  # scan: the least novel heading this far off (or more) turns at θ = ±1
+KLINOKINESIS_GAIN = 2.0  # klinokinesis: θ = ±min(1, gain · novelty / active KCs)
 LOG_KEYS = ("time_s", "heading_rad", "novelty", "turn", "kc_active")
 
 
@@ -60,6 +62,8 @@ class RouteFollowingConfig:
     scan_deg: float = field(60.0, "scan: headings judged within ± this of the current one (deg)", min=10.0,
                             max=180.0)
     n_kc: int = field(4000, "Kenyon cells", min=100, max=40000)
+    views_per_cycle: int = field(4, "training: views stored (and guidance updates) per gait cycle",
+                                 choices=(1, 2, 4, 8))
     checkpoint_every_m: float = field(1.0, "route checkpoints this far apart (m)", min=0.1, max=10.0)
     reach_m: float = field(0.5, "a checkpoint is reached within this distance (m)", min_exclusive=0.0, max=5.0)
     landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
@@ -145,11 +149,11 @@ class FamiliaritySteering:
         offsets, values, active = self.memory.scan(sensed["panorama"])
         ahead = values[np.flatnonzero(offsets == 0.0)[0]]
         if self.strategy == "scan":
-            turn = float(np.clip(-offsets[int(np.argmin(values))] / 45.0, -1.0, 1.0))
+            turn = float(np.clip(-offsets[int(np.argmin(values))] / SCAN_FULL_TURN_DEG, -1.0, 1.0))
         else:
             kcs = max(active * self.memory.learner.rates("KC").shape[1], 1.0)
             self.side = -self.side
-            turn = self.side * min(1.0, 2.0 * ahead / kcs)
+            turn = self.side * min(1.0, KLINOKINESIS_GAIN * ahead / kcs)
         for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
                            ("turn", turn), ("kc_active", active)):
             self.log[key].append(float(value))
@@ -176,11 +180,13 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s)
     memory = RouteMemory(config, seed)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
+    training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
+                             brain_dt_s=CYCLE_S / config.views_per_cycle)
     steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m)
     with engine:
         engine.load(world, [body])
         guide = GuidedLearning(points, memory)
-        training = AgentLoop(engine, gait, clocks, steering=guide)
+        training = AgentLoop(engine, gait, training_clocks, steering=guide)
         training.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
         training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
         memory.freeze()
