@@ -205,6 +205,17 @@ def test_initial_heading_follows_each_cue_alone_and_lies_between_them_together()
     assert abs(heading["both"] - predicted) < 12.0, (heading, predicted, weight)
 
 
+def test_a_longer_home_vector_pulls_the_initial_heading_toward_it():
+    """Wystrach et al. 2015: the weight of PI grows with the home vector's length. Conflict 90°, 12 agents:
+    after a 2 m outbound walk the ant heads near the nest, after 20 m about halfway to the PI direction."""
+    heading = {}
+    for distance in (2.0, 20.0):
+        rows = run(12, conflict_deg=90, pi_distance_m=distance, timeout_s=8.0).trials
+        heading[distance] = circular_mean_deg([r["initial_heading_deg"] for r in rows
+                                               if np.isfinite(r["initial_heading_deg"])])
+    assert heading[2.0] < 15.0 and 30.0 < heading[20.0] < 60.0, heading
+
+
 def test_a_trial_does_not_depend_on_its_batch_mates():
     alone = run(1, seed=4, timeout_s=3.2).trials[0]
     batch = run(3, seed=2, timeout_s=3.2).trials[2]
