@@ -30,6 +30,14 @@ amplitude at release), ``predicted_heading_deg`` (the amplitude-weighted circula
 at release), ``error_to_pi_deg``, ``error_to_vision_deg`` and ``error_to_prediction_deg`` (absolute
 differences of the initial heading), ``success`` (reached the nest), ``time_to_nest_s``.
 
+Measured (seed 0; README, *cue-integration*): ``neuronav run cue-integration --trials 1000`` gives mean
+initial headings of 0.1, 8.7, 16.5, 22.5, 25.2 and 20.5° for conflicts of 0–150° against weighted
+predictions of -0.1, 9.1, 19.3, 26.8, 29.8 and 23.8° (PI weight 0.33): between the cues, 0.4–4.6° on
+the visual side of the prediction; ``--set cues=pi`` and ``cues=vision`` (300 agents) follow their own
+cue within 3°. ``neuronav sweep cue-integration --grid pi_distance_m=2,5,10,20 --set conflict_deg=90
+--trials 100``: 4.9, 11.9, 25.0 and 45.3° for PI weights 0.07, 0.18, 0.33 and 0.50. The unit and
+cross-backend tests keep the shape of these findings on shorter runs.
+
 On the kinematic backend all trials run as one batch (1000 agents at once); on MuJoCo and PyBullet
 one ant per trial. The kinematic batch renders its panoramas with one ray per pixel
 (``kinematic_supersample``; the ant's camera averages 4 × 4), 16 times cheaper.
