@@ -237,3 +237,20 @@ def test_crossing_bearing_interpolates_the_crossing_point():
     # |(t 2, 1)| = 1.5 at t = sqrt(1.25) / 2: the point (1.118, 1).
     assert np.degrees(crossing_bearing(path, np.zeros(2), 1.5)) == pytest.approx(np.degrees(np.arctan2(1.118034, 1)))
     assert np.isnan(crossing_bearing(path, np.zeros(2), 5.0))
+
+
+def test_figures_draw_the_cues_the_prediction_and_the_measured_means():
+    from scenarios.cue_integration_figures import conflict_table, initial_heading_figure, paths_figure
+
+    config = apply_overrides(CueIntegrationConfig, ["conflict_deg=0,90", "timeout_s=4.0"])
+    result = run_trials(load_scenario("cue-integration"), config, "kinematic", trials=4, seed=0)
+    table = conflict_table(result)
+    np.testing.assert_array_equal(table["conflict_deg"], [0.0, 90.0])
+    lines = {line.get_gid(): line for line in initial_heading_figure(result, config).axes[0].lines}
+    np.testing.assert_allclose(lines["pi line"].get_ydata(), [0.0, 90.0])
+    np.testing.assert_allclose(lines["vision line"].get_ydata(), [0.0, 0.0])
+    np.testing.assert_allclose(lines["prediction"].get_ydata(), table["predicted_deg"])
+    ninety = [t["predicted_heading_deg"] for t in result.trials if t["conflict_deg"] == 90.0]
+    assert table["predicted_deg"][1] == pytest.approx(circular_mean_deg(ninety))
+    paths = {line.get_gid() for line in paths_figure(result, config).axes[0].lines}
+    assert {f"trial {i}" for i in range(4)} <= paths
