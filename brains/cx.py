@@ -157,3 +157,35 @@ def decode_home_vector(cpu4: np.ndarray, memory_gain: float = CPU4_GAIN) -> tupl
     # CPU4 cells fire most for travel *toward* their column: the nest lies the opposite way.
     direction = np.angle(-harmonic)
     return direction, np.abs(harmonic) / memory_gain
+
+
+GOAL_PORT = SensorSpec("goal", (2 * N_COLUMNS,), "")
+
+
+def goal_pattern(direction_rad: np.ndarray, amplitude: float = 0.15) -> np.ndarray:
+    """A CPU4-like goal (16 cells) that :func:`decode_home_vector` reads as ``direction_rad``.
+
+    CPU4 cells fire most for travel away from the goal, each hemisphere offset by one column: cell
+    j < 8 is ``0.5 + a cos(p_j + 45° - direction - 180°)``, cell j >= 8 the same with -45°. The default
+    amplitude is about CPU4's own modulation after a 10 m walk at the embodied gain (0.33–0.58).
+
+    Returns
+    -------
+    ndarray, shape (N, 16)
+    """
+    away = np.asarray(direction_rad, float).reshape(-1, 1) + np.pi
+    preferred = preferred_headings_rad(N_COLUMNS)[None, :]
+    column = 2.0 * np.pi / N_COLUMNS
+    left = 0.5 + amplitude * np.cos(preferred + column - away)
+    right = 0.5 + amplitude * np.cos(preferred - column - away)
+    return np.concatenate([left, right], axis=1)
+
+
+def goal_steering(noise: float = 0.1) -> Circuit:
+    """Stone et al.'s steering (Pontine, CPU1, ``motor``) toward a goal read on the ``goal`` port instead
+    of the CPU4 memory: reads ``heading`` (rad, clockwise from +y) and ``goal`` (16 cells in CPU4's format,
+    :func:`goal_pattern`); writes ``motor`` (rad, positive = clockwise)."""
+    circuit = Circuit.merge(heading_circuit(noise, name="goal_steering"), name="goal_steering")
+    circuit.add_input("goal", 2 * N_COLUMNS, ports=[GOAL_PORT], encoder="identity")
+    steering_populations(circuit, goal="goal", noise=noise)
+    return circuit

@@ -14,8 +14,8 @@ Once per gait cycle (0.64 s), for a batch of agents:
    (twice the ring's tuned single-cue amplitude): the amplitudes share out a fixed total by
    reliability. The ring (:func:`brains.ring.ring_attractor`) starts silent and settles for 0.2 s;
    its bump is the combined direction.
-4. The bump is written as a goal in CPU4's format (:func:`goal_pattern`) into Stone et al.'s
-   steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`goal_steering`); the turn
+4. The bump is written as a goal in CPU4's format (:func:`brains.cx.goal_pattern`) into Stone et al.'s
+   steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`brains.cx.goal_steering`); the turn
    and stride follow eqs. 3.6–3.7 (:func:`scenarios.embodied_homing.steering_command`).
 
 Cue width: with Gaussian cues of 90° the settled bump lies within 3.5° of the amplitude-weighted
@@ -31,24 +31,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from brains.cx import (
-    CPU4_LEAK,
-    N_COLUMNS,
-    decode_home_vector,
-    heading_circuit,
-    preferred_headings_rad,
-    steering_populations,
-    stone2017,
-)
+from brains.cx import CPU4_LEAK, decode_home_vector, goal_pattern, goal_steering, stone2017
 from brains.ring import CUE_AMPLITUDE, N_CELLS, gaussian_cue, ring_attractor, settle
 from brains.visual_homing import homing_direction, skyline_view
-from neuronav import Circuit, SensorSpec
 
 CUE_SIGMA_RAD = float(np.radians(90.0))
 TOTAL_AMPLITUDE = 2.0 * CUE_AMPLITUDE
-GOAL_PORT = SensorSpec("goal", (2 * N_COLUMNS,), "")
-# The goal's modulation about 0.5: CPU4's own after a 10 m outbound walk (0.33–0.58 at the embodied gain).
-GOAL_AMPLITUDE = 0.15
 # Embodied CX (the path-integration scenario's i2bot protocol): gain per gait cycle, rate noise.
 MEMORY_GAIN = 0.04
 CX_NOISE = 0.0008
@@ -56,36 +44,6 @@ CX_NOISE = 0.0008
 # headings, decode to 9.7–10.2 m for 10 m and 20.4–21.5 m for 20 m (direction within 10.5°); 1.4 per
 # metre after 2 m and 1.7 after 40 m, as the memory saturates (tests/unit/test_cue_integration.py).
 DECODED_PER_M = 2.0
-
-
-def goal_pattern(direction_rad: np.ndarray, amplitude: float = GOAL_AMPLITUDE) -> np.ndarray:
-    """A CPU4-like goal (16 cells) that :func:`brains.cx.decode_home_vector` reads as ``direction_rad``.
-
-    CPU4 cells fire most for travel away from the goal, each hemisphere offset by one column:
-    cell j < 8 is ``0.5 + a cos(p_j + 45° - direction - 180°)``, cell j >= 8 the same with -45°.
-
-    Returns
-    -------
-    ndarray, shape (N, 16)
-    """
-    away = np.asarray(direction_rad, float).reshape(-1, 1) + np.pi
-    preferred = preferred_headings_rad(N_COLUMNS)[None, :]
-    column = 2.0 * np.pi / N_COLUMNS
-    left = 0.5 + amplitude * np.cos(preferred + column - away)
-    right = 0.5 + amplitude * np.cos(preferred - column - away)
-    return np.concatenate([left, right], axis=1)
-
-
-def goal_steering(noise: float = CX_NOISE) -> Circuit:
-    """Stone et al.'s steering (Pontine, CPU1, ``motor``) toward a goal read on the ``goal`` port.
-
-    Reads ``heading`` (rad, clockwise from +y) and ``goal`` (16 cells in CPU4's format,
-    :func:`goal_pattern`); writes ``motor`` (rad, positive = clockwise).
-    """
-    circuit = Circuit.merge(heading_circuit(noise, name="goal_steering"), name="goal_steering")
-    circuit.add_input("goal", 2 * N_COLUMNS, ports=[GOAL_PORT], encoder="identity")
-    steering_populations(circuit, goal="goal", noise=noise)
-    return circuit
 
 
 def cue_amplitudes(r_pi: np.ndarray, r_vision: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -135,7 +93,7 @@ class CueBrain:
         self.cx = stone2017(noise=CX_NOISE, memory_gain=MEMORY_GAIN, memory_leak=CPU4_LEAK).compile(
             batch=self.batch, seeds=seeds)
         self.ring = ring_attractor().compile(batch=self.batch)
-        self.steer = goal_steering().compile(batch=self.batch, seeds=[s + 7919 for s in seeds])
+        self.steer = goal_steering(noise=CX_NOISE).compile(batch=self.batch, seeds=[s + 7919 for s in seeds])
         self.last_position = None
         self.log: dict[str, list] = {k: [] for k in self.LOG_KEYS}
 

@@ -4,7 +4,7 @@ the scenario's kinematic protocol (scenarios/cue_integration*.py, brains/visual_
 import numpy as np
 import pytest
 
-from brains.cx import decode_home_vector
+from brains.cx import decode_home_vector, goal_pattern, goal_steering
 from brains.ring import gaussian_cue, ring_attractor, settle
 from brains.visual_homing import homing_direction, ridf, skyline_view
 from neuronav.config import apply_overrides
@@ -21,8 +21,6 @@ from scenarios.cue_integration_brain import (
     TOTAL_AMPLITUDE,
     CueBrain,
     cue_amplitudes,
-    goal_pattern,
-    goal_steering,
     ring_cues,
     weighted_direction,
 )
