@@ -15,8 +15,10 @@ Once per gait cycle (0.64 s), for a batch of agents:
    reliability. The ring (:func:`brains.ring.ring_attractor`) starts silent and settles for 0.2 s;
    its bump is the combined direction.
 4. The bump is written as a goal in CPU4's format (:func:`brains.cx.goal_pattern`) into Stone et al.'s
-   steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`brains.cx.goal_steering`); the turn
-   and stride follow eqs. 3.6–3.7 (:func:`scenarios.embodied_homing.steering_command`).
+   steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`brains.cx.goal_steering`);
+   the turn and stride follow eqs. 3.6–3.7 for the batch (:func:`steering_commands`). The CPU1
+   imbalance is about -1.27 sin(goal - heading) (tested), so the default gain ``k_pi = 1`` saturates
+   the turn beyond ~50°; embodied homing's 5 saturates it at ~10° and flips the turn every cycle.
 
 Cue width: with Gaussian cues of 90° the settled bump lies within 3.5° of the amplitude-weighted
 circular mean ``arg(sum_i a_i exp(i mu_i))`` for conflicts up to 150° and weights 0.25–0.75
