@@ -326,6 +326,9 @@ class CueIntegration(Scenario):
     default_backend = "kinematic"
     records_video = True
     timing_metrics = ("real_time_factor",)
+    # One kinematic batch of 1000 agents takes about 7 min on the 2-core machine (README): bigger runs are
+    # cut into batches of at most this many, each written (and resumable) on its own.
+    chunk_trials = 1000
     # NaN by definition: the time to the nest of an ant that never arrives; the initial heading (and its
     # errors) of one that never got initial_distance_m from the release point.
     optional_metrics = ("time_to_nest_s", "initial_heading_deg", "error_to_pi_deg", "error_to_vision_deg",
