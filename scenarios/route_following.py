@@ -21,6 +21,13 @@ Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) 
 within ``reach_m`` of, the mean and maximum distance of the test path from the route, success (the
 last checkpoint reached), the views stored. The kinematic backend's eyes are the ant's panoramic
 camera at one ray per pixel; the physics backends render the ant's own camera.
+
+Measured with the defaults (``neuronav run route-following --backend B --trials N --seed 1 --set
+strategy=S [--set release_offset_m=D]``, 2026-11-26): kinematic, scan: 9/10 reach the end, 99 % of
+checkpoints, mean distance 0.20 m; klinokinesis: 0/10, 52 %; scan released 0.5 m right: 9/10, 67 %;
+1 m right or left: 1/10 and 0/10, 2 %. MuJoCo (3 trials): scan 3/3, 100 %; klinokinesis 0/3, 37 %.
+PyBullet (2 trials): scan 0/2, 55 %; klinokinesis 0/2, 55 %. The slow tests of
+``tests/unit/test_route_following.py`` keep the kinematic scan and klinokinesis numbers.
 """
 
 from __future__ import annotations
