@@ -270,3 +270,12 @@ def test_the_circuit_diagram_dashes_a_plastic_connection_and_names_its_rule():
     assert edges["edge:PN->KC"].get_linestyle() == "-"
     labels = [text.get_text() for text in ax.get_legend().get_texts()]
     assert "plastic: one-shot depression" in labels
+
+
+def test_the_step_activation_is_binary_at_its_threshold():
+    from neuronav.activations import step
+
+    x = np.array([[-1.0, 0.5, 0.5000001, 2.0]])
+    np.testing.assert_array_equal(step(x.copy(), threshold=0.5), [[0.0, 0.0, 1.0, 1.0]])
+    with pytest.raises(CircuitError, match="no parameter 'slope'"):
+        Circuit("s").add_population("KC", 2, activation="step", params={"slope": 1.0})
