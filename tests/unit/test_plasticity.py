@@ -277,5 +277,5 @@ def test_the_step_activation_is_binary_at_its_threshold():
 
     x = np.array([[-1.0, 0.5, 0.5000001, 2.0]])
     np.testing.assert_array_equal(step(x.copy(), threshold=0.5), [[0.0, 0.0, 1.0, 1.0]])
-    with pytest.raises(CircuitError, match="no parameter 'slope'"):
+    with pytest.raises(CircuitError, match="no parameter slope; allowed: threshold"):
         Circuit("s").add_population("KC", 2, activation="step", params={"slope": 1.0})
