@@ -279,3 +279,26 @@ def test_the_step_activation_is_binary_at_its_threshold():
     np.testing.assert_array_equal(step(x.copy(), threshold=0.5), [[0.0, 0.0, 1.0, 1.0]])
     with pytest.raises(CircuitError, match="no parameter slope; allowed: threshold"):
         Circuit("s").add_population("KC", 2, activation="step", params={"slope": 1.0})
+
+
+def test_a_delayed_plastic_connection_reads_the_previous_step():
+    """A -> OUT delayed and plastic: OUT_t = W_t · A_{t-1}; the rule sees this step's A_t and OUT_t."""
+    c = Circuit("delayed")
+    c.add_input("X", 2, ports=[SensorSpec("x", (2,))])
+    c.add_input("reward", 1, ports=[SensorSpec("reward", (1,))])
+    c.add_population("A", 2)
+    c.connect("X", "A", weights=np.eye(2))
+    c.add_output("OUT", 1, MotorSpec("y", (1,)))
+    c.connect("A", "OUT", weights=[[0.5, 0.5]], delay=True,
+              learning=ThreeFactorHebbian(rate=0.1, w_min=0.0, w_max=2.0, gate="reward"))
+    sim = c.compile(batch=1)
+    rng = np.random.default_rng(0)
+    w, previous = np.array([0.5, 0.5]), np.zeros(2)
+    for _ in range(10):
+        x, g = rng.uniform(0, 1, 2), rng.uniform(-1, 1)
+        y = sim.step({"x": x[None], "reward": np.array([[g]])})["y"][0, 0]
+        expected = w @ previous
+        assert y == pytest.approx(expected, abs=1e-12)
+        w = np.clip(w + 0.1 * g * expected * x, 0.0, 2.0)
+        previous = x
+    np.testing.assert_allclose(sim.weights("A->OUT")[0, 0], w, atol=1e-12)
