@@ -19,7 +19,7 @@ Conventions (see ``bodies/desert_ant/README.md``):
   θ ≥ 0: left (1 − 2θ), right 1; θ < 0: left 1, right (1 + 2θ). A negative factor reverses that
   side's sweep, so at θ = ±1 the two sides push opposite ways and the body turns on the spot.
 
-The phase tables are docs/parameters.mdNone§2 (I2Bot paper §3.3.1). A leg's phase at control step k is
+The phase tables are docs/parameters.md §2 (I2Bot paper §3.3.1). A leg's phase at control step k is
 ``(k − offset) mod cycle``; it swings for the first ``swing_steps`` of its cycle, then stands.
 """
 
@@ -39,7 +39,7 @@ PATTERNS = ("tripod", "ripple", "wave")
 GAIT_NAMES = ("tripod", "ripple", "wave", "ik")
 TRIPOD_A = ("FL", "MR", "HL")
 TRIPOD_B = ("FR", "ML", "HR")
-# Phase offsets in units of S_n (ripple) and 2·S_n (wave), docs/parameters.mdNone§2.
+# Phase offsets in units of S_n (ripple) and 2·S_n (wave), docs/parameters.md §2.
 RIPPLE_OFFSETS = {"HL": 0, "FR": 1, "ML": 2, "HR": 3, "FL": 4, "MR": 5}
 WAVE_OFFSETS = {"FL": 0, "HR": 1, "MR": 2, "FR": 3, "HL": 4, "ML": 5}
 # IK step length per rad of stride, in mean horizontal ThC-to-claw distances: calibrated so that the IK

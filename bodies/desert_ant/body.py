@@ -45,7 +45,7 @@ LEGS = ("FL", "ML", "HL", "FR", "MR", "HR")
 LEG_JOINTS = ("ThCz", "ThCx", "CTr", "FTi", "TiTa")
 MASS_KEYS = ("thorax", "head", "gaster", "antenna", "front_leg", "middle_leg", "hind_leg")
 
-# -- docs/parameters.mdNone§1 (I2Bot coordinates: head toward -x, |y|; lengths joint to joint) -----------------
+# -- docs/parameters.md §1 (I2Bot coordinates: head toward -x, |y|; lengths joint to joint) -----------------
 _PAIRS = {
     "F": dict(kind="front", anchor=(0.239, 0.07, -0.02), lengths=(0.020, 0.250, 0.208, 0.216),
               radii=(0.011, 0.0146, 0.011, 0.006), mass=0.27, rest=(0.0, 0.0, -0.32, 1.56, -0.2), azimuth_deg=45.0),
@@ -136,6 +136,13 @@ def _capsule_between(start, end, radius: float, name: str, rgba, min_half_fracti
 
 def _volume(geoms) -> float:
     return float(sum(g.volume_m3() for g in geoms))
+
+
+def _check_antenna_yaw(value) -> float:
+    """A rest yaw the joint can hold with room for a ±0.7 rad sweep: -0.9 to 0.9 rad."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not -0.9 <= value <= 0.9:
+        raise ConfigError(f"antenna_yaw_rad must be a number from -0.9 to 0.9 rad, got {value!r}")
+    return float(value)
 
 
 def _check_positive(label: str, value) -> float:
@@ -230,7 +237,7 @@ def _from_i2bot(point) -> tuple[float, float, float]:
 # -- the body ----------------------------------------------------------------------------------------
 def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: float | None = None,
                masses_kg: Mapping[str, float] | None = None, standing_height_m: float | None = None,
-               name: str = "desert_ant") -> BodySpec:
+               antenna_yaw_rad: float | None = None, name: str = "desert_ant") -> BodySpec:
     """The Cataglyphis fortis body at ×100 scale (0.1 m in simulation ≈ 1 mm on the ant).
 
     Parameters
@@ -251,6 +258,9 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
         Height of the root above a flat floor at the rest pose. Default 0.43·scale with the
         published legs; with changed leg lengths, the mean depth the legs reach with the default
         coxa tilts (so the body stays level and every claw touches).
+    antenna_yaw_rad : float, optional
+        Rest yaw of each antenna, outward from straight ahead, -0.9 to 0.9 rad (default 0.6, I2Bot's);
+        smaller brings the odour sites together (at rest 0.43 m apart at 0.6 rad, 0.23 m at 0.25).
     name : str
 
     Returns
@@ -268,6 +278,7 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
                       else _check_positive("antenna_length_m", antenna_length_m))
     if standing_height_m is not None:
         standing_height_m = _check_positive("standing_height_m", standing_height_m)
+    antenna_yaw = ANTENNA_REST["yaw"] if antenna_yaw_rad is None else _check_antenna_yaw(antenna_yaw_rad)
     scape_len = antenna_length * ANTENNA["scape"] / antenna_total
     funiculus_len = antenna_length - scape_len
     scape_r, funiculus_r = ANTENNA["scape_radius"] * scale, ANTENNA["funiculus_radius"] * scale
@@ -318,7 +329,7 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
     segments += _trunk_segments(masses, scale)
     for side in ("L", "R"):
         segs, side_sites = _antenna_segments(side, scape_len, funiculus_len, scape_r, funiculus_r, tip_r,
-                                             masses["antenna"], scale)
+                                             masses["antenna"], scale, antenna_yaw)
         segments += segs
         sites += side_sites
     # Contact sites: claws in LEGS order, then the antenna tips; odour and wind after them.
@@ -427,8 +438,9 @@ def _trunk_segments(masses: dict, scale: float) -> list[Segment]:
 
 
 def _antenna_segments(side: str, scape_len: float, funiculus_len: float, scape_r: float, funiculus_r: float,
-                      tip_r: float, mass_kg: float, scale: float):
-    """Base (pitch), scape (yaw), funiculus (elbow) of one antenna, its tip contact and its odour/wind sites."""
+                      tip_r: float, mass_kg: float, scale: float, yaw_rad: float):
+    """Base (pitch), scape (yaw, resting ``yaw_rad`` outward), funiculus (elbow) of one antenna, its tip
+    contact and its odour/wind sites."""
     sign = 1.0 if side == "L" else -1.0
     bx, by, bz = ANTENNA["base"]
     base = (HEAD["centre_from_neck"] * scale + bx * scale, sign * by * scale, bz * scale)
@@ -449,7 +461,7 @@ def _antenna_segments(side: str, scape_len: float, funiculus_len: float, scape_r
                 _joint(f"{prefix}_pitch", (0, -1, 0), ANTENNA_REST["pitch"], (-0.8, 1.2), ANTENNA_GAINS, scale),
                 base),
         Segment(f"{prefix}_scape", f"{prefix}_base", geoms["scape"], mass["scape"],
-                _joint(f"{prefix}_yaw", (0, 0, 1), sign * ANTENNA_REST["yaw"], (-1.6, 1.6), ANTENNA_GAINS, scale)),
+                _joint(f"{prefix}_yaw", (0, 0, 1), sign * yaw_rad, (-1.6, 1.6), ANTENNA_GAINS, scale)),
         Segment(f"{prefix}_funiculus", f"{prefix}_scape", geoms["funiculus"], mass["funiculus"],
                 _joint(f"{prefix}_elbow", (0, 1, 0), ANTENNA_REST["elbow"], (-0.3, 2.4), ANTENNA_GAINS, scale),
                 (float(scape_len), 0.0, 0.0)),

@@ -1,6 +1,6 @@
 """The compiled graph of Stone et al. 2017 (brains/cx.py) against the hand-written numpy model.
 
-The two share no code: brains/cx_reference.py copies its numbers from docs/parameters.mdNone§3. With noise
+The two share no code: brains/cx_reference.py copies its numbers from docs/parameters.md §3. With noise
 off they must agree to 1e-12 on every population over a varying route, so a change to either
 implementation's equations (or to the compiler) fails here.
 """
@@ -15,7 +15,7 @@ from brains.cx_reference import StoneNumpy
 
 STEPS = 400
 TOLERANCE = 1e-12
-# docs/parameters.mdNone§3: noise-free TB1 at heading 0 after settling (an inverted bump).
+# docs/parameters.md §3: noise-free TB1 at heading 0 after settling (an inverted bump).
 TB1_SETTLED_AT_0 = [0.0099, 0.0203, 0.6387, 0.8866, 0.9297, 0.8866, 0.6387, 0.0203]
 
 

@@ -147,7 +147,25 @@ def test_antenna_length_and_mass_overrides(ant):
     assert leg_mass(body, "HR") == pytest.approx(0.6)
 
 
+def test_antenna_rest_yaw_sets_the_joints_and_brings_the_odour_sites_together():
+    """The rest yaw is each antenna's yaw joint rest angle, mirrored; the odour sites at rest sit
+    0.43 m apart at the default 0.6 rad, 0.23 m at 0.25 rad (docs of ``desert_ant``)."""
+    from bodies.antennae import point_antennae
+
+    def spacing_m(body):
+        left, right = point_antennae(body)
+        return left.tip_m[1] - right.tip_m[1]
+
+    narrow = desert_ant(antenna_yaw_rad=0.25)
+    rest = dict(zip(narrow.joint_names, narrow.rest_pose_rad()))
+    assert rest["antenna_L_yaw"] == pytest.approx(0.25) and rest["antenna_R_yaw"] == pytest.approx(-0.25)
+    assert spacing_m(desert_ant()) == pytest.approx(0.43, abs=0.005)
+    assert spacing_m(narrow) == pytest.approx(0.23, abs=0.01)
+
+
 @pytest.mark.parametrize("kwargs, fragment", [
+    ({"antenna_yaw_rad": 1.2}, "antenna_yaw_rad"),
+    ({"antenna_yaw_rad": "wide"}, "antenna_yaw_rad"),
     ({"scale": 0}, "scale"),
     ({"scale": -1.0}, "scale"),
     ({"antenna_length_m": -0.5}, "antenna_length_m"),

@@ -10,7 +10,7 @@ from bodies.gaits import IK_REACH_FACTOR, FKGait, IKGait, foot_position, leg_ik,
 from neuronav.errors import ConfigError
 
 N = 20  # S_n, steps per half swing (I2Bot default)
-PUBLISHED = {  # pattern: (cycle, swing, swing-start offsets in steps), docs/parameters.mdNone§2
+PUBLISHED = {  # pattern: (cycle, swing, swing-start offsets in steps), docs/parameters.md §2
     "tripod": (4 * N, 2 * N, {"FL": 0, "MR": 0, "HL": 0, "FR": 2 * N, "ML": 2 * N, "HR": 2 * N}),
     "ripple": (6 * N, 2 * N, {"HL": 0, "FR": N, "ML": 2 * N, "HR": 3 * N, "FL": 4 * N, "MR": 5 * N}),
     "wave": (12 * N, 2 * N, {"FL": 0, "HR": 2 * N, "MR": 4 * N, "FR": 6 * N, "HL": 8 * N, "ML": 10 * N}),

@@ -1,4 +1,4 @@
-"""Stone et al. 2017's CX against the published numbers (docs/parameters.mdNone§3)."""
+"""Stone et al. 2017's CX against the published numbers (docs/parameters.md §3)."""
 
 import numpy as np
 import pytest
