@@ -4,6 +4,8 @@ Runs, each ``--repeats`` times in a fresh process, and prints the median wall ti
 
 - ``neuronav run locomotion --backend mujoco --set duration_s=1 --out DIR`` (the issue's measure: the
   simulation itself takes about 0.05 s of it, the rest is start-up, writing the run and figures);
+- the same with its figures drawn in the command's own process (``NEURONAV_FIGURE_HELPER=0``: no
+  helper importing matplotlib while the trial runs, :mod:`neuronav.figure_process`);
 - the same with ``--no-figures``;
 - ``neuronav list``.
 
@@ -38,9 +40,9 @@ from pathlib import Path
 BIN = Path(sys.executable).parent
 
 
-def median_wall_s(command: list[str], repeats: int, out: Path | None = None) -> float:
+def median_wall_s(command: list[str], repeats: int, out: Path | None = None, **environ: str) -> float:
     times = []
-    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"), MPLBACKEND="Agg")
+    env = dict(os.environ, MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"), MPLBACKEND="Agg", **environ)
     for _ in range(repeats):
         if out is not None:
             shutil.rmtree(out, ignore_errors=True)
@@ -59,10 +61,12 @@ def main() -> None:
         out = Path(folder) / "run"
         run = [neuronav, "run", "locomotion", "--backend", "mujoco", "--set", "duration_s=1", "--out", str(out)]
         rows = [("1 s locomotion run (figures)", median_wall_s(run, args.repeats, out)),
+                ("  the same, figures drawn in-process", median_wall_s(run, args.repeats, out,
+                                                                     NEURONAV_FIGURE_HELPER="0")),
                 ("1 s locomotion run --no-figures", median_wall_s([*run, "--no-figures"], args.repeats, out)),
                 ("neuronav list", median_wall_s([neuronav, "list"], args.repeats))]
     for label, seconds in rows:
-        print(f"{label:<34} {seconds:6.2f} s (median of {args.repeats})")
+        print(f"{label:<38} {seconds:6.2f} s (median of {args.repeats})")
 
 
 if __name__ == "__main__":

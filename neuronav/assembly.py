@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from neuronav.executors import task_failure
+from neuronav.figure_process import draw_figures
 from neuronav.grid import GridPoint
 from neuronav.rundir import (
     PARTS_DIR,
@@ -129,7 +130,7 @@ class Assembler:
         if not self.figures or not any(row.get("status") == "ok" for row in result.trials):
             return [], {}
         try:
-            return list(self.scenario.figures(result, point.config, folder)), {}
+            return draw_figures(self.scenario, result, point.config, folder), {}
         except Exception as error:  # noqa: BLE001 - results are kept; the figure failure is reported
             reason = task_failure(error)
             sys.stderr.write(f"neuronav: warning: figures of {self.name}"

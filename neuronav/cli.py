@@ -34,6 +34,7 @@ from pathlib import Path
 from neuronav import registry
 from neuronav.config import describe
 from neuronav.errors import ConfigError, NeuronavError
+from neuronav.figure_process import figure_process
 from neuronav.rundir import check_out_dir, claim_out_dir, write_atomic
 from neuronav.runner import load_scenario, run_scenario
 from neuronav.sweep import plan, run_sweep
@@ -90,7 +91,7 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, figure_helper: bool = False) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit status.
 
     0: every trial ran. 1: some trials failed (their count and the first reason on stderr; the
@@ -100,6 +101,13 @@ def main(argv: list[str] | None = None) -> int:
     """
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
+    # The command line draws figures in a helper that imports matplotlib while the trials run.
+    with figure_process(figure_helper and args.command != "list" and getattr(args, "figures", False)):
+        return _command(args, argv)
+
+
+def _command(args, argv: list[str]) -> int:
+    """Run the parsed command; the exit status (see :func:`main`)."""
     try:
         if args.command == "list":
             return _list()
@@ -288,7 +296,7 @@ def console_main() -> int:
 
     gc.set_threshold(50_000, 20, 20)
     try:
-        return main()
+        return main(figure_helper=True)
     finally:
         gc.freeze()
 
