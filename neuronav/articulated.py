@@ -59,6 +59,53 @@ FOLLOW_WALL_DEG = 70.0
 FOLLOW_MIN_EYE_Z_M = 0.05
 
 
+# What a physics backend holding several ants reads for each (the agent axis first, (N, ...)).
+SWARM_SENSORS: tuple[tuple[str, tuple, str], ...] = (
+    ("heading", (1,), "rad"),
+    ("position", (2,), "m"),
+    ("velocity", (2,), "m/s"),
+    ("body_pos", (3,), "m"),
+    ("body_quat", (4,), ""),
+    ("body_linvel", (3,), "m/s"),
+    ("body_angvel", (3,), "rad/s"),
+    ("joint_pos", ("J",), "rad"),
+    ("joint_vel", ("J",), "rad/s"),
+)
+
+
+def swarm_capabilities(name: str, joints: int) -> Capabilities:
+    """The sensors (:data:`SWARM_SENSORS`) and motors of a physics backend holding several ants of
+    ``joints`` hinge joints each, batched over ants."""
+    return Capabilities(
+        name=name,
+        sensors=tuple(SensorSpec(n, tuple(joints if d == "J" else d for d in shape), units)
+                      for n, shape, units in SWARM_SENSORS),
+        motors=(MotorSpec("joint_targets", (joints,), "rad"),), batched=True)
+
+
+def check_swarm_load(engine: str, world, bodies, max_ants: int | None = None) -> list[BodySpec]:
+    """What a physics backend holding several ants accepts in ``load``: a World without adhesion and 1
+    to ``max_ants`` BodySpecs with the same number of joints; the bodies as a list, or a
+    :class:`ConfigError` naming ``engine`` and what is allowed."""
+    bodies = list(bodies)
+    if not isinstance(world, World):
+        raise ConfigError(f"{engine} swarm: load needs a neuronav World, got {type(world).__name__}")
+    too_many = max_ants is not None and len(bodies) > max_ants
+    if not bodies or too_many or not all(isinstance(b, BodySpec) for b in bodies):
+        kinds = ", ".join(type(b).__name__ for b in bodies[:3]) or "nothing"
+        allowed = ("one or more BodySpecs" if max_ants is None
+                   else f"1 to {max_ants} BodySpecs (one contact bit each)")
+        raise ConfigError(f"{engine} swarm: load takes {allowed}, got {len(bodies)} "
+                          f"({kinds}{', ...' if len(bodies) > 3 else ''})")
+    joints = {len(b.joints) for b in bodies}
+    if len(joints) != 1:
+        raise ConfigError(f"{engine} swarm: every ant needs the same number of joints, got {sorted(joints)}")
+    if world.adhesion_n > 0:
+        raise ConfigError(f"{engine} swarm: adhesion is not simulated for several ants; world adhesion_n must be "
+                          f"0, got {world.adhesion_n}")
+    return bodies
+
+
 def articulated_capabilities(name: str, body: BodySpec | None = None, n_odours: int = 1) -> Capabilities:
     """The sensors and motors of an articulated backend carrying ``body`` in a world of ``n_odours``.
 

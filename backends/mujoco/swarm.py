@@ -51,28 +51,16 @@ from backends.mujoco.mjcf import (  # noqa: E402
     _visual,
     _world,
 )
-from neuronav.articulated import check_timestep  # noqa: E402
+from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities  # noqa: E402
 from neuronav.backend import BackendBase, Capabilities, check_seed, start_pose  # noqa: E402
 from neuronav.body import BodySpec  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
-from neuronav.ports import MotorSpec, SensorSpec  # noqa: E402
 from neuronav.trail_floor import trail_floor  # noqa: E402
 from neuronav.world import World  # noqa: E402
 
 MAX_ANTS = 31  # one contype bit per ant besides the world's bit 0
 ANT_PREFIX = "ant{index}/"
 
-SWARM_SENSORS: tuple[tuple[str, tuple, str], ...] = (
-    ("heading", (1,), "rad"),
-    ("position", (2,), "m"),
-    ("velocity", (2,), "m/s"),
-    ("body_pos", (3,), "m"),
-    ("body_quat", (4,), ""),
-    ("body_linvel", (3,), "m/s"),
-    ("body_angvel", (3,), "rad/s"),
-    ("joint_pos", ("J",), "rad"),
-    ("joint_vel", ("J",), "rad/s"),
-)
 
 
 def prefixed_body(body: BodySpec, prefix: str) -> BodySpec:
@@ -162,19 +150,7 @@ class MujocoSwarm(BackendBase):
         ConfigError
             Not a World, no bodies, too many, not BodySpecs, different joint counts, or adhesion.
         """
-        bodies = list(bodies)
-        if not isinstance(world, World):
-            raise ConfigError(f"mujoco swarm: load needs a neuronav World, got {type(world).__name__}")
-        if not 1 <= len(bodies) <= MAX_ANTS or not all(isinstance(b, BodySpec) for b in bodies):
-            kinds = ", ".join(type(b).__name__ for b in bodies[:3]) or "nothing"
-            raise ConfigError(f"mujoco swarm: load takes 1 to {MAX_ANTS} BodySpecs (one contact bit each), "
-                              f"got {len(bodies)} ({kinds}{', ...' if len(bodies) > 3 else ''})")
-        joints = {len(b.joints) for b in bodies}
-        if len(joints) != 1:
-            raise ConfigError(f"mujoco swarm: every ant needs the same number of joints, got {sorted(joints)}")
-        if world.adhesion_n > 0:
-            raise ConfigError(f"mujoco swarm: adhesion is not simulated for several ants; world adhesion_n must be "
-                              f"0, got {world.adhesion_n}")
+        bodies = check_swarm_load("mujoco", world, bodies, MAX_ANTS)
         spec, names = build_swarm_spec(world, bodies, self._timestep_s)
         try:
             model = spec.compile()
@@ -184,12 +160,7 @@ class MujocoSwarm(BackendBase):
         self.bodies, self.world = bodies, world
         self._index()
         count, joints = len(bodies), len(bodies[0].joints)
-        sizes = {"J": joints}
-        self.capabilities = Capabilities(
-            name="mujoco",
-            sensors=tuple(SensorSpec(n, tuple(sizes.get(d, d) for d in shape), units)
-                          for n, shape, units in SWARM_SENSORS),
-            motors=(MotorSpec("joint_targets", (joints,), "rad"),), batched=True)
+        self.capabilities = swarm_capabilities("mujoco", joints)
         self._count = count
         self.reset()
 

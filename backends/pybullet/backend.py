@@ -86,7 +86,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from backends.pybullet.camera import render_flat, render_follow
-from backends.pybullet.engine import EngineOutput, pb
+from backends.pybullet.engine import EngineOutput, configure_client, pb
 from backends.pybullet.scene import build_ground, build_object, build_vision_world, check_object, place_objects
 from backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.articulated import ArticulatedBackend, FollowView
@@ -428,13 +428,7 @@ class PybulletBackend(ArticulatedBackend):
     def _build(self) -> None:
         """(Re)create the simulation: parameters, body first, then ground and objects."""
         cid = self._client
-        pb.resetSimulation(physicsClientId=cid)
-        pb.setGravity(0.0, 0.0, GRAVITY_M_S2, physicsClientId=cid)
-        inner = self._timestep_s / self._substeps
-        pb.setTimeStep(inner, physicsClientId=cid)
-        pb.setPhysicsEngineParameter(fixedTimeStep=inner, numSubSteps=0, numSolverIterations=self._iterations,
-                                     deterministicOverlappingPairs=1, physicsClientId=cid)
-        pb.setRealTimeSimulation(0, physicsClientId=cid)
+        configure_client(cid, self._timestep_s, self._substeps, self._iterations, GRAVITY_M_S2)
         flags = pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER
         with EngineOutput(self.warnings):
             self._robot = pb.loadURDF(self._urdf_path, useFixedBase=self._urdf.fixed_base, flags=flags,

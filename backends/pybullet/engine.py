@@ -61,3 +61,17 @@ class EngineOutput:
         for message in messages:
             if message not in self._warnings:
                 self._warnings.append(message)
+
+
+def configure_client(client: int, timestep_s: float, substeps: int, solver_iterations: int,
+                     gravity_m_s2: float) -> None:
+    """Reset a physics client and set what every neuronav simulation in it uses: gravity, ``substeps``
+    fixed inner steps per ``timestep_s``, the solver's iterations, deterministic contact pairs, no
+    real-time stepping."""
+    pb.resetSimulation(physicsClientId=client)
+    pb.setGravity(0.0, 0.0, gravity_m_s2, physicsClientId=client)
+    inner = timestep_s / substeps
+    pb.setTimeStep(inner, physicsClientId=client)
+    pb.setPhysicsEngineParameter(fixedTimeStep=inner, numSubSteps=0, numSolverIterations=solver_iterations,
+                                 deterministicOverlappingPairs=1, physicsClientId=client)
+    pb.setRealTimeSimulation(0, physicsClientId=client)

@@ -31,27 +31,14 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from backends.pybullet.backend import DIVERGED_VELOCITY, GRAVITY_M_S2, PybulletBackend
-from backends.pybullet.engine import EngineOutput, pb
+from backends.pybullet.engine import EngineOutput, configure_client, pb
 from backends.pybullet.scene import build_ground, build_object, check_object
 from backends.pybullet.urdf import body_to_urdf
-from neuronav.articulated import check_timestep
+from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities
 from neuronav.backend import BackendBase, Capabilities, check_seed, quat_product, start_pose
 from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
-from neuronav.ports import MotorSpec, SensorSpec
 from neuronav.world import World
-
-SWARM_SENSORS: tuple[tuple[str, tuple, str], ...] = (
-    ("heading", (1,), "rad"),
-    ("position", (2,), "m"),
-    ("velocity", (2,), "m/s"),
-    ("body_pos", (3,), "m"),
-    ("body_quat", (4,), ""),
-    ("body_linvel", (3,), "m/s"),
-    ("body_angvel", (3,), "rad/s"),
-    ("joint_pos", ("J",), "rad"),
-    ("joint_vel", ("J",), "rad/s"),
-)
 
 
 class _Ant:
@@ -153,18 +140,7 @@ class PybulletSwarm(BackendBase):
         ConfigError
             Not a World, no bodies, not BodySpecs, different joint counts, adhesion, or a bad object.
         """
-        bodies = list(bodies)
-        if not isinstance(world, World):
-            raise ConfigError(f"pybullet swarm: load needs a neuronav World, got {type(world).__name__}")
-        if not bodies or not all(isinstance(b, BodySpec) for b in bodies):
-            kinds = ", ".join(type(b).__name__ for b in bodies[:3]) or "nothing"
-            raise ConfigError(f"pybullet swarm: load takes one or more BodySpecs, got {kinds}")
-        joints = {len(b.joints) for b in bodies}
-        if len(joints) != 1:
-            raise ConfigError(f"pybullet swarm: every ant needs the same number of joints, got {sorted(joints)}")
-        if world.adhesion_n > 0:
-            raise ConfigError(f"pybullet swarm: adhesion is not simulated for several ants; world adhesion_n must "
-                              f"be 0, got {world.adhesion_n}")
+        bodies = check_swarm_load("pybullet", world, bodies)
         for obj in world.objects:
             check_object(obj)
         self.close()
@@ -188,23 +164,12 @@ class PybulletSwarm(BackendBase):
         if self._client < 0:
             raise SimulationError("pybullet swarm: could not start a DIRECT physics client")
         self.bodies, self.world = bodies, world
-        count = len(bodies[0].joints)
-        self.capabilities = Capabilities(
-            name="pybullet",
-            sensors=tuple(SensorSpec(n, tuple(count if d == "J" else d for d in shape), units)
-                          for n, shape, units in SWARM_SENSORS),
-            motors=(MotorSpec("joint_targets", (count,), "rad"),), batched=True)
+        self.capabilities = swarm_capabilities("pybullet", len(bodies[0].joints))
         self.reset()
 
     def _build(self) -> None:
         cid = self._client
-        pb.resetSimulation(physicsClientId=cid)
-        pb.setGravity(0.0, 0.0, GRAVITY_M_S2, physicsClientId=cid)
-        inner = self._timestep_s / self.substeps
-        pb.setTimeStep(inner, physicsClientId=cid)
-        pb.setPhysicsEngineParameter(fixedTimeStep=inner, numSubSteps=0, numSolverIterations=self._iterations,
-                                     deterministicOverlappingPairs=1, physicsClientId=cid)
-        pb.setRealTimeSimulation(0, physicsClientId=cid)
+        configure_client(cid, self._timestep_s, self.substeps, self._iterations, GRAVITY_M_S2)
         self._ants = [_Ant(cid, body, path, fixed, self.warnings)
                       for body, (path, fixed, _) in zip(self.bodies, self._urdfs)]
         self.ants = [ant.id for ant in self._ants]
