@@ -17,6 +17,11 @@ a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` 
    - ``klinokinesis``: the ant turns alternately left and right by θ = ±min(1, 2 · novelty / active
      KCs), stride 20°: straight where the view is familiar, zig-zagging where it is novel.
 
+With ``forest_seed`` >= 0 every trial shares one forest (and KC wiring): the route is learnt once and
+each trial differs by its seeded release (``release_jitter_m``); on the kinematic backend the trials
+then run as one batch of point agents (:func:`run_kinematic_batch`, at most ``chunk_trials`` = 1000
+per batch), each panorama judged on its own, so that a trial's numbers do not depend on its batch.
+
 Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came
 within ``reach_m`` of, the mean and maximum distance of the test path from the route, success (the
 last checkpoint reached), the views stored. The kinematic backend's eyes are the ant's panoramic
@@ -76,6 +81,12 @@ class RouteFollowingConfig:
     landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
     timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
                               min=1e-4, max=0.008)
+    forest_seed: int = field(-1, "seed of one forest (and KC wiring) shared by every trial, whose route is then "
+                             "learnt once and, on the kinematic backend, tested by all trials as one batch of "
+                             "agents; -1: each trial grows its own forest from its seed (trials one at a time)",
+                             min=-1, max=2**31 - 1)
+    release_jitter_m: float = field(0.0, "each trial's release moved by a seeded Gaussian offset of this standard "
+                                    "deviation on each axis (m)", min=0.0, max=5.0)
 
 
 def wrap_rad(angle):
@@ -142,6 +153,18 @@ class GuidedLearning:
         return float(np.clip(-error / np.radians(45.0), -1.0, 1.0)), STRIDE_RAD
 
 
+def familiarity_turn(strategy: str, memory: RouteMemory, panorama: np.ndarray,
+                     side: float) -> tuple[float, float, float]:
+    """The turn (θ > 0 left) the mushroom body gives for one ant's panorama (1, rows, columns), the novelty
+    looking ahead and the share of KCs active; ``side`` (±1) is klinokinesis's turn direction this cycle."""
+    offsets, values, active = memory.scan(panorama)
+    ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+    if strategy == "scan":
+        return float(np.clip(-offsets[int(np.argmin(values))] / SCAN_FULL_TURN_DEG, -1.0, 1.0)), ahead, active
+    kcs = max(active * memory.learner.rates("KC").shape[1], 1.0)
+    return side * min(1.0, KLINOKINESIS_GAIN * ahead / kcs), ahead, active
+
+
 class FamiliaritySteering:
     """Test steering: the mushroom body alone, by scanning or by klinokinesis."""
 
@@ -153,14 +176,8 @@ class FamiliaritySteering:
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         sensed = loop.backend.read(("position", "heading", "panorama"))
-        offsets, values, active = self.memory.scan(sensed["panorama"])
-        ahead = values[np.flatnonzero(offsets == 0.0)[0]]
-        if self.strategy == "scan":
-            turn = float(np.clip(-offsets[int(np.argmin(values))] / SCAN_FULL_TURN_DEG, -1.0, 1.0))
-        else:
-            kcs = max(active * self.memory.learner.rates("KC").shape[1], 1.0)
-            self.side = -self.side
-            turn = self.side * min(1.0, KLINOKINESIS_GAIN * ahead / kcs)
+        self.side = -self.side
+        turn, ahead, active = familiarity_turn(self.strategy, self.memory, sensed["panorama"], self.side)
         for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
                            ("turn", turn), ("kc_active", active)):
             self.log[key].append(float(value))
@@ -179,13 +196,24 @@ def release_point(points: np.ndarray, headings: np.ndarray, offset_m: float) -> 
     return points[0] + offset_m * np.array([np.cos(h), -np.sin(h)])
 
 
+def world_seed(config: RouteFollowingConfig, seed: int) -> int:
+    """The seed of a trial's forest and KC wiring: the shared ``forest_seed``, or the trial's own."""
+    return config.forest_seed if config.forest_seed >= 0 else seed
+
+
+def trial_release(config: RouteFollowingConfig, points: np.ndarray, headings: np.ndarray, seed: int) -> np.ndarray:
+    """A trial's release point: ``release_offset_m`` right of the start, plus its seeded jitter."""
+    jitter = np.random.default_rng(seed).normal(0.0, 1.0, 2) * config.release_jitter_m
+    return release_point(points, headings, config.release_offset_m) + jitter
+
+
 def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
                 landscape: bool = False) -> tuple[dict, dict]:
     """One trial: train along the route, test from the release point; the metrics row and the logs."""
     points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
-    world = forest_world(points, seed=seed)
+    world = forest_world(points, seed=world_seed(config, seed))
     engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s)
-    memory = RouteMemory(config, seed)
+    memory = RouteMemory(config, world_seed(config, seed))
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
     training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
                              brain_dt_s=CYCLE_S / config.views_per_cycle)
@@ -198,7 +226,7 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
         training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
         memory.freeze()
         test = AgentLoop(engine, gait, clocks, steering=steering)
-        start = release_point(points, headings, config.release_offset_m)
+        start = trial_release(config, points, headings, seed)
         test.reset(seed=seed, position_m=tuple(start), yaw_rad=np.pi / 2 - headings[0])
         test.run(config.duration_s, until=steering.arrived)
         final = engine.read(("position",))["position"][0]
@@ -271,6 +299,7 @@ class RouteFollowing(Scenario):
     config_type = RouteFollowingConfig
     backends = EVERY_BACKEND
     default_backend = "kinematic"
+    chunk_trials = 1000  # kinematic batches (shared forest) of at most this many agents
 
     def smoke_config(self) -> dict:
         return {"route_m": 2.0, "duration_s": 4.0, "n_kc": 500, "landscape": False}
@@ -283,24 +312,107 @@ class RouteFollowing(Scenario):
 
     def run(self, config: RouteFollowingConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
+        if backend == "kinematic" and config.forest_seed >= 0:
+            rows, logs = run_kinematic_batch(config, [seed + i for i in range(trials)], landscape=config.landscape)
+            rows = [dict(row, trial=i, seed=seed + i) for i, row in enumerate(rows)]
+            return ScenarioResult(trials=rows, timeseries=pack_route_logs(logs, config),
+                                  simulated_time_s=config.duration_s)
         rows, logs = [], []
         for i in range(trials):
             row, log = route_trial(config, backend, seed + i, landscape=(i == 0 and config.landscape
                                                                          and backend == "kinematic"))
             rows.append(dict(row, trial=i, seed=seed + i))
             logs.append(log)
-        timeseries = pack_cycle_logs(logs, LOG_KEYS)
-        longest = max(len(log["train_position_m"]) for log in logs)
-        timeseries["train_position_m"] = np.full((len(logs), longest, 2), np.nan)
-        for i, log in enumerate(logs):
-            timeseries["train_position_m"][i, :len(log["train_position_m"])] = log["train_position_m"]
-        timeseries["route_m"] = route(int(round(config.route_m / SPACING_M)) + 1)[0][None]
-        if "landscape_novelty" in logs[0]:
-            for key in ("landscape_x_m", "landscape_y_m", "landscape_novelty"):
-                timeseries[key] = logs[0][key][None]  # the first trial's, with a trial axis of one
-        return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=config.duration_s)
+        return ScenarioResult(trials=rows, timeseries=pack_route_logs(logs, config),
+                              simulated_time_s=config.duration_s)
 
     def figures(self, result: ScenarioResult, config: RouteFollowingConfig, out_dir: Path) -> list[Path]:
         from scenarios.route_following_figures import write_route_figures
 
         return write_route_figures(result, config, Path(out_dir))
+
+
+def pack_route_logs(logs: list[dict], config: RouteFollowingConfig) -> dict[str, np.ndarray]:
+    """The trials' logs as NaN-padded arrays (trials, cycles, ...), the route and the first trial's landscape."""
+    timeseries = pack_cycle_logs(logs, LOG_KEYS)
+    longest = max(len(log["train_position_m"]) for log in logs)
+    timeseries["train_position_m"] = np.full((len(logs), longest, 2), np.nan)
+    for i, log in enumerate(logs):
+        timeseries["train_position_m"][i, :len(log["train_position_m"])] = log["train_position_m"]
+    timeseries["route_m"] = route(int(round(config.route_m / SPACING_M)) + 1)[0][None]
+    if "landscape_novelty" in logs[0]:
+        for key in ("landscape_x_m", "landscape_y_m", "landscape_novelty"):
+            timeseries[key] = logs[0][key][None]  # the first trial's, with a trial axis of one
+    return timeseries
+
+
+def train_once(config: RouteFollowingConfig, world, points: np.ndarray, headings: np.ndarray,
+               memory: RouteMemory) -> np.ndarray:
+    """The guided training walk on the kinematic unicycle (one agent); the learnt memory frozen. Its path."""
+    engine, body, gait, physics_dt = make_route_engine("kinematic", config.timestep_s)
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.views_per_cycle)
+    guide = GuidedLearning(points, memory)
+    with engine:
+        engine.load(world, [body])
+        training = AgentLoop(engine, gait, clocks, steering=guide)
+        training.reset(seed=0, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
+        training.run(10.0 * config.route_m, until=lambda loop: guide.done)
+    memory.freeze()
+    return np.array(guide.positions).reshape(-1, 2)
+
+
+def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscape: bool = False):
+    """Every trial at once in the shared forest (``forest_seed``): the route learnt once, then one point agent
+    per trial released at its own (seeded) point, each steered by the same memory. Rows and logs per trial.
+
+    A trial's numbers do not depend on the batch: its release comes from its seed, and every agent's
+    panorama is judged on its own, exactly as a trial run alone.
+    """
+    points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
+    world = forest_world(points, seed=config.forest_seed)
+    memory = RouteMemory(config, config.forest_seed)
+    train_path = train_once(config, world, points, headings, memory)
+    n = len(seeds)
+    starts = np.array([trial_release(config, points, headings, s) for s in seeds])
+    engine, body, _, _ = make_route_engine("kinematic", config.timestep_s)
+    body = replace(body, count=n)
+    controls = int(round(CYCLE_S / CONTROL_S))
+    done_s, final = np.full(n, np.nan), np.full((n, 2), np.nan)
+    logs = [dict({k: [] for k in LOG_KEYS}, position_m=[]) for _ in seeds]
+    sides = np.ones(n)
+    with engine:
+        engine.load(world, [body])
+        engine.reset(seed=0, position_m=starts, heading_rad=np.full(n, headings[0]))
+        while engine.time < config.duration_s - 1e-9 and np.isnan(done_s).any():
+            sensed = engine.read(("position", "heading", "panorama"))
+            turn, stride = np.zeros((n, 1)), np.zeros((n, 1))
+            sides = -sides
+            for i in np.flatnonzero(np.isnan(done_s)):
+                turn[i, 0], ahead, active = familiarity_turn(config.strategy, memory, sensed["panorama"][i:i + 1],
+                                                             sides[i])
+                stride[i, 0] = STRIDE_RAD
+                for key, value in (("time_s", engine.time), ("heading_rad", sensed["heading"][i, 0]),
+                                   ("novelty", ahead), ("turn", turn[i, 0]), ("kc_active", active)):
+                    logs[i][key].append(float(value))
+                logs[i]["position_m"].append(sensed["position"][i].copy())
+            engine.write({"turn": turn, "stride": stride})
+            for _ in range(controls):
+                engine.step(1)
+                position = engine.read(("position",))["position"]
+                near = np.isnan(done_s) & (np.hypot(*(position - points[-1]).T) < config.reach_m)
+                done_s[near], final[near] = engine.time, position[near]
+                if not np.isnan(done_s).any() or engine.time >= config.duration_s - 1e-9:
+                    break
+        running = np.isnan(done_s)
+        final[running] = engine.read(("position",))["position"][running]
+        end_s = np.where(running, engine.time, done_s)
+    rows, out = [], []
+    for i in range(n):
+        log = {k: np.array(v, float) for k, v in logs[i].items() if k != "position_m"}
+        log["position_m"] = np.array([*logs[i]["position_m"], final[i]]).reshape(-1, 2)
+        log["train_position_m"] = train_path
+        rows.append(route_metrics(log["position_m"], points, config, memory.views, float(end_s[i])))
+        out.append(log)
+    if landscape and n:
+        out[0].update(familiarity_landscape(memory, world, points, headings))
+    return rows, out

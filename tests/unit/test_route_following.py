@@ -103,3 +103,27 @@ def test_klinokinesis_follows_part_of_the_route():
     rows = [route_trial(RouteFollowingConfig(strategy="klinokinesis", landscape=False), "kinematic", seed)[0]
             for seed in range(1, 11)]
     assert np.mean([r["checkpoints_reached"] for r in rows]) >= 0.3
+
+
+def test_a_kinematic_batch_gives_each_trial_the_numbers_it_has_alone():
+    """Shared forest (forest_seed): trial k of a batch of 4 == trial k run alone == the one-at-a-time loop."""
+    from scenarios.route_following import run_kinematic_batch
+
+    config = RouteFollowingConfig(route_m=3.0, duration_s=10.0, n_kc=500, landscape=False, forest_seed=1,
+                                  release_jitter_m=0.2)
+    rows4, logs4 = run_kinematic_batch(config, [5, 6, 7, 8])
+    rows1, logs1 = run_kinematic_batch(config, [7])
+    assert rows4[2] == rows1[0]
+    assert np.array_equal(logs4[2]["position_m"], logs1[0]["position_m"])
+    assert len({r["mean_distance_m"] for r in rows4}) == 4  # the seeded releases differ
+    alone, log = route_trial(config, "kinematic", seed=7)
+    assert np.array_equal(log["position_m"], logs1[0]["position_m"])
+    assert alone["success"] == rows1[0]["success"] and np.isclose(alone["test_time_s"], rows1[0]["test_time_s"])
+
+
+def test_run_batches_the_trials_on_kinematic_with_a_shared_forest():
+    result = RouteFollowing().run(RouteFollowingConfig(route_m=2.0, duration_s=4.0, n_kc=500, landscape=False,
+                                                       forest_seed=1, release_jitter_m=0.1),
+                                  backend="kinematic", trials=3, seed=2)
+    assert [r["seed"] for r in result.trials] == [2, 3, 4]
+    assert result.timeseries["position_m"].shape[0] == 3
