@@ -81,6 +81,8 @@ class RouteFollowingConfig:
     landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
     timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
                               min=1e-4, max=0.008)
+    test_views_per_cycle: int = field(1, "test: views judged per gait cycle, their novelty summed for the one turn "
+                                      "per cycle (the kinematic batch judges one)", choices=(1, 2, 4, 8))
     forest_seed: int = field(-1, "seed of one forest (and KC wiring) shared by every trial, whose route is then "
                              "learnt once and, on the kinematic backend, tested by all trials as one batch of "
                              "agents; -1: each trial grows its own forest from its seed (trials one at a time)",
@@ -153,31 +155,43 @@ class GuidedLearning:
         return float(np.clip(-error / np.radians(45.0), -1.0, 1.0)), STRIDE_RAD
 
 
-def familiarity_turn(strategy: str, memory: RouteMemory, panorama: np.ndarray,
-                     side: float) -> tuple[float, float, float]:
-    """The turn (θ > 0 left) the mushroom body gives for one ant's panorama (1, rows, columns), the novelty
-    looking ahead and the share of KCs active; ``side`` (±1) is klinokinesis's turn direction this cycle."""
-    offsets, values, active = memory.scan(panorama)
-    ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+def familiarity_turn(strategy: str, memory: RouteMemory, offsets: np.ndarray, values: np.ndarray, active: float,
+                     side: float) -> float:
+    """The turn (θ > 0 left) the mushroom body gives for the novelty ``values`` of the scanned heading
+    ``offsets`` (deg, + right; :meth:`RouteMemory.scan`); ``side`` (±1) is klinokinesis's turn direction
+    this cycle, ``active`` the share of KCs active looking ahead."""
     if strategy == "scan":
-        return float(np.clip(-offsets[int(np.argmin(values))] / SCAN_FULL_TURN_DEG, -1.0, 1.0)), ahead, active
+        return float(np.clip(-offsets[int(np.argmin(values))] / SCAN_FULL_TURN_DEG, -1.0, 1.0))
+    ahead = values[np.flatnonzero(offsets == 0.0)[0]]
     kcs = max(active * memory.learner.rates("KC").shape[1], 1.0)
-    return side * min(1.0, KLINOKINESIS_GAIN * ahead / kcs), ahead, active
+    return side * min(1.0, KLINOKINESIS_GAIN * ahead / kcs)
 
 
 class FamiliaritySteering:
     """Test steering: the mushroom body alone, by scanning or by klinokinesis."""
 
-    def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float) -> None:
+    def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float,
+                 views_per_cycle: int = 1) -> None:
         self.strategy, self.memory, self.route_m, self.reach_m = strategy, memory, route_m, reach_m
         self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
         self.log["position_m"] = []
         self.side = 1.0
+        self.views_per_cycle, self.ticks, self.turn = views_per_cycle, 0, 0.0
+        self.recent: list[np.ndarray] = []
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
+        """Called ``views_per_cycle`` times per gait cycle; turns once per cycle, on the novelty summed over
+        the last ``views_per_cycle`` views (so that the body's sway within a stride averages out)."""
         sensed = loop.backend.read(("position", "heading", "panorama"))
+        offsets, values, active = self.memory.scan(sensed["panorama"])
+        self.recent = [*self.recent, values][-self.views_per_cycle:]
+        self.ticks += 1
+        if (self.ticks - 1) % self.views_per_cycle:
+            return self.turn, STRIDE_RAD
         self.side = -self.side
-        turn, ahead, active = familiarity_turn(self.strategy, self.memory, sensed["panorama"], self.side)
+        ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+        turn = self.turn = familiarity_turn(self.strategy, self.memory, offsets, np.sum(self.recent, axis=0), active,
+                                            self.side)
         for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
                            ("turn", turn), ("kc_active", active)):
             self.log[key].append(float(value))
@@ -214,10 +228,10 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     world = forest_world(points, seed=world_seed(config, seed))
     engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s)
     memory = RouteMemory(config, world_seed(config, seed))
-    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.test_views_per_cycle)
     training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
                              brain_dt_s=CYCLE_S / config.views_per_cycle)
-    steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m)
+    steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m, config.test_views_per_cycle)
     with engine:
         engine.load(world, [body])
         guide = GuidedLearning(points, memory)
@@ -312,7 +326,7 @@ class RouteFollowing(Scenario):
 
     def run(self, config: RouteFollowingConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
-        if backend == "kinematic" and config.forest_seed >= 0:
+        if backend == "kinematic" and config.forest_seed >= 0 and config.test_views_per_cycle == 1:
             rows, logs = run_kinematic_batch(config, [seed + i for i in range(trials)], landscape=config.landscape)
             rows = [dict(row, trial=i, seed=seed + i) for i, row in enumerate(rows)]
             return ScenarioResult(trials=rows, timeseries=pack_route_logs(logs, config),
@@ -388,8 +402,9 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
             turn, stride = np.zeros((n, 1)), np.zeros((n, 1))
             sides = -sides
             for i in np.flatnonzero(np.isnan(done_s)):
-                turn[i, 0], ahead, active = familiarity_turn(config.strategy, memory, sensed["panorama"][i:i + 1],
-                                                             sides[i])
+                offsets, values, active = memory.scan(sensed["panorama"][i:i + 1])
+                ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+                turn[i, 0] = familiarity_turn(config.strategy, memory, offsets, values, active, sides[i])
                 stride[i, 0] = STRIDE_RAD
                 for key, value in (("time_s", engine.time), ("heading_rad", sensed["heading"][i, 0]),
                                    ("novelty", ahead), ("turn", turn[i, 0]), ("kc_active", active)):

@@ -127,3 +127,12 @@ def test_run_batches_the_trials_on_kinematic_with_a_shared_forest():
                                   backend="kinematic", trials=3, seed=2)
     assert [r["seed"] for r in result.trials] == [2, 3, 4]
     assert result.timeseries["position_m"].shape[0] == 3
+
+
+def test_judging_several_views_per_cycle_still_turns_once_per_cycle_and_follows_the_route():
+    from scenarios.visual_setup import CYCLE_S
+
+    config = RouteFollowingConfig(route_m=3.0, duration_s=10.0, n_kc=500, landscape=False, test_views_per_cycle=2)
+    row, log = route_trial(config, "kinematic", seed=1)
+    assert np.allclose(np.diff(log["time_s"]), CYCLE_S)  # one logged decision per gait cycle
+    assert row["success"] and row["checkpoints_reached"] == 1.0
