@@ -57,7 +57,6 @@ from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_
 STRIDE_RAD = np.radians(20.0)
 LOOKAHEAD_M = 1.0
 SCAN_STEP_COLUMNS = 2  # 10° of the 72-column panorama
-SCAN_FULL_TURN_DEG = 30.0  # scan: the least novel heading this far off (or more) turns at θ = ±1
 KLINOKINESIS_GAIN = 2.0  # klinokinesis: θ = ±min(1, gain · novelty / active KCs)
 LOG_KEYS = ("time_s", "heading_rad", "novelty", "turn", "kc_active")
 
@@ -81,6 +80,8 @@ class RouteFollowingConfig:
     landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
     timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
                               min=1e-4, max=0.008)
+    scan_full_turn_deg: float = field(30.0, "scan: the least novel heading this far off (or more) turns at θ = ±1; "
+                                      "smaller offsets turn proportionally less (deg)", min=5.0, max=180.0)
     test_views_per_cycle: int = field(1, "test: views judged per gait cycle, their novelty summed for the one turn "
                                       "per cycle (the kinematic batch judges one)", choices=(1, 2, 4, 8))
     forest_seed: int = field(-1, "seed of one forest (and KC wiring) shared by every trial, whose route is then "
@@ -156,12 +157,12 @@ class GuidedLearning:
 
 
 def familiarity_turn(strategy: str, memory: RouteMemory, offsets: np.ndarray, values: np.ndarray, active: float,
-                     side: float) -> float:
+                     side: float, full_turn_deg: float = 30.0) -> float:
     """The turn (θ > 0 left) the mushroom body gives for the novelty ``values`` of the scanned heading
     ``offsets`` (deg, + right; :meth:`RouteMemory.scan`); ``side`` (±1) is klinokinesis's turn direction
-    this cycle, ``active`` the share of KCs active looking ahead."""
+    this cycle, ``active`` the share of KCs active looking ahead; scan turns at ±1 from ``full_turn_deg`` off."""
     if strategy == "scan":
-        return float(np.clip(-offsets[int(np.argmin(values))] / SCAN_FULL_TURN_DEG, -1.0, 1.0))
+        return float(np.clip(-offsets[int(np.argmin(values))] / full_turn_deg, -1.0, 1.0))
     ahead = values[np.flatnonzero(offsets == 0.0)[0]]
     kcs = max(active * memory.learner.rates("KC").shape[1], 1.0)
     return side * min(1.0, KLINOKINESIS_GAIN * ahead / kcs)
@@ -171,12 +172,13 @@ class FamiliaritySteering:
     """Test steering: the mushroom body alone, by scanning or by klinokinesis."""
 
     def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float,
-                 views_per_cycle: int = 1) -> None:
+                 views_per_cycle: int = 1, full_turn_deg: float = 30.0) -> None:
         self.strategy, self.memory, self.route_m, self.reach_m = strategy, memory, route_m, reach_m
         self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
         self.log["position_m"] = []
         self.side = 1.0
         self.views_per_cycle, self.ticks, self.turn = views_per_cycle, 0, 0.0
+        self.full_turn_deg = full_turn_deg
         self.recent: list[np.ndarray] = []
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
@@ -191,7 +193,7 @@ class FamiliaritySteering:
         self.side = -self.side
         ahead = values[np.flatnonzero(offsets == 0.0)[0]]
         turn = self.turn = familiarity_turn(self.strategy, self.memory, offsets, np.sum(self.recent, axis=0), active,
-                                            self.side)
+                                            self.side, self.full_turn_deg)
         for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
                            ("turn", turn), ("kc_active", active)):
             self.log[key].append(float(value))
@@ -231,7 +233,8 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.test_views_per_cycle)
     training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
                              brain_dt_s=CYCLE_S / config.views_per_cycle)
-    steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m, config.test_views_per_cycle)
+    steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m, config.test_views_per_cycle,
+                                   config.scan_full_turn_deg)
     with engine:
         engine.load(world, [body])
         guide = GuidedLearning(points, memory)
@@ -404,7 +407,8 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
             for i in np.flatnonzero(np.isnan(done_s)):
                 offsets, values, active = memory.scan(sensed["panorama"][i:i + 1])
                 ahead = values[np.flatnonzero(offsets == 0.0)[0]]
-                turn[i, 0] = familiarity_turn(config.strategy, memory, offsets, values, active, sides[i])
+                turn[i, 0] = familiarity_turn(config.strategy, memory, offsets, values, active, sides[i],
+                                              config.scan_full_turn_deg)
                 stride[i, 0] = STRIDE_RAD
                 for key, value in (("time_s", engine.time), ("heading_rad", sensed["heading"][i, 0]),
                                    ("novelty", ahead), ("turn", turn[i, 0]), ("kc_active", active)):

@@ -136,3 +136,13 @@ def test_judging_several_views_per_cycle_still_turns_once_per_cycle_and_follows_
     row, log = route_trial(config, "kinematic", seed=1)
     assert np.allclose(np.diff(log["time_s"]), CYCLE_S)  # one logged decision per gait cycle
     assert row["success"] and row["checkpoints_reached"] == 1.0
+
+
+def test_the_scan_turns_toward_the_least_novel_heading_in_proportion_to_its_offset():
+    from scenarios.route_following import familiarity_turn
+
+    offsets = np.array([-20.0, -10.0, 0.0, 10.0, 20.0])  # deg, + right
+    values = np.array([5.0, 4.0, 3.0, 1.0, 2.0])  # least novel 10° right
+    assert familiarity_turn("scan", None, offsets, values, 0.1, 1.0, full_turn_deg=30.0) == -1.0 / 3.0
+    assert familiarity_turn("scan", None, offsets, values, 0.1, 1.0, full_turn_deg=60.0) == -1.0 / 6.0
+    assert familiarity_turn("scan", None, offsets, values[::-1], 0.1, 1.0, full_turn_deg=5.0) == 1.0  # clipped
