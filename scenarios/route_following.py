@@ -33,6 +33,15 @@ checkpoints, mean distance 0.20 m; klinokinesis: 0/10, 52 %; scan released 0.5 m
 1 m right or left: 1/10 and 0/10, 2 %. MuJoCo (3 trials): scan 3/3, 100 %; klinokinesis 0/3, 37 %.
 PyBullet (2 trials): scan 0/2, 55 %; klinokinesis 0/2, 55 %. The slow tests of
 ``tests/unit/test_route_following.py`` keep the kinematic scan and klinokinesis numbers.
+Batched (``neuronav run route-following --trials 1000 --seed 1 --set forest_seed=1 --set
+release_jitter_m=0.2``, one shared forest, 2026-11-26): 846/1000 reach the end, 92 % of checkpoints,
+mean distance 0.34 m; 513 s for the 1000 agents on a shared 2-core machine. MuJoCo, 4 trials (seed 1,
+the defaults): 4/4, 100 %, mean distance 0.06-0.19 m; PyBullet, the same: 0/4, 50-70 % (mean 60 %). On
+PyBullet the scan swings the heading (a
+one-third turn gives 16-24° in the next cycle, and more in the cycle after) and the ant leaves the
+route on the outside of its first bend; neither a lower gain (``scan_full_turn_deg=60``: smooth, but
+it turns too late; 70 %) nor four test views per cycle (``test_views_per_cycle=4``: 60 %) brings it
+to the end (single trials, seed 1).
 """
 
 from __future__ import annotations
