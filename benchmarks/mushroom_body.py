@@ -7,7 +7,11 @@ Measures, on one core (BLAS limited to one thread):
     agent's KC→MBON weights); target compiled/hand-written <= 1.0;
 (b) batch N (default 1000): cost per agent-step of both, and the compiled circuit's per-agent
     speed-up batch 1 -> batch N (the issue's target: >= 20x), in float64 and float32;
-(c) learning a 1000-view route: 1000 steps with learning on, one agent, both versions.
+(c) learning a 1000-view route: 1000 steps with learning on, one agent, both versions;
+(d) the ceiling on (b): the compiled batch-1 step divided by the per-agent time of the bare PN→KC
+    product alone at batch N, the faster of a dense BLAS call and scipy's sparse product (each KC
+    reads 10 PNs), nothing else. A step that computes every KC's input costs at least that, so
+    batching cannot beat this speed-up on this CPU.
 
 Inputs are z-scored random codes (about 3 % of the KCs active at the default threshold, as on
 forest views). Each repeat times ``--steps`` steps after one untimed step; ratios use the best of
@@ -88,6 +92,23 @@ def step_times(batch: int, steps: int, repeats: int, dtype) -> tuple[float, floa
     return compiled, numpy_time
 
 
+def bare_product_time(batch: int, steps: int, repeats: int, dtype) -> tuple[float, str]:
+    """Seconds of the PN→KC product alone at ``batch`` (the faster of dense BLAS and a scipy sparse
+    product, if scipy is installed) and which it was: the floor of any mushroom-body step."""
+    w_kc_pn = kc_wiring(N_KC, N_PN, INPUTS_PER_KC, 0).astype(dtype)
+    views = [(v,) for v in codes(batch, steps, dtype)]
+    dense = np.ascontiguousarray(w_kc_pn.T)
+    times = {"dense BLAS": best_time(lambda pn: pn @ dense, views, repeats)}
+    try:
+        from scipy import sparse
+    except ImportError:
+        return times["dense BLAS"], "dense BLAS"
+    w_sparse = sparse.csr_matrix(w_kc_pn)
+    times["scipy sparse"] = best_time(lambda pn: w_sparse @ np.ascontiguousarray(pn.T), views, repeats)
+    fastest = min(times, key=times.get)
+    return times[fastest], fastest
+
+
 def route_learning_times(views: int = 1000) -> tuple[float, float]:
     """(compiled, hand-written) seconds to learn a route of ``views`` views, one agent."""
     route = codes(1, views, np.float64, seed=1)
@@ -126,6 +147,11 @@ def main() -> None:
               f"us/agent-step, hand-written {many_numpy / args.batch * 1e6:.2f} us/agent-step; per-agent "
               f"speed-up of the compiled circuit batch 1 -> {args.batch}: {one / (many / args.batch):.1f}x "
               f"(target >= {TARGET_PER_AGENT_SPEEDUP:g}x)")
+        floor, how = bare_product_time(args.batch, max(4, args.steps // 100), args.repeats, dtype)
+        floor /= args.batch
+        print(f"[{name}] ceiling: the bare PN->KC product alone ({how}) costs {floor * 1e6:.2f} us/agent at "
+              f"batch {args.batch} (the compiled step: {many / args.batch / floor:.2f}x that), so batching cannot "
+              f"beat batch 1 -> {args.batch} by more than {one / floor:.1f}x here")
     print("learning a 1000-view route (one agent, learning on every step):")
     compiled, numpy_time = route_learning_times()
     print(f"  compiled {compiled * 1e3:.1f} ms, hand-written {numpy_time * 1e3:.1f} ms")

@@ -65,8 +65,7 @@ from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_
 
 STRIDE_RAD = np.radians(20.0)
 LOOKAHEAD_M = 1.0
-SCAN_STEP_COLUMNS = 2  # 10° of the 72-column panorama
-KLINOKINESIS_GAIN = 2.0  # klinokinesis: θ = ±min(1, gain · novelty / active KCs)
+COLUMN_DEG = 5.0  # one column of the 72-column panorama
 LOG_KEYS = ("time_s", "heading_rad", "novelty", "turn", "kc_active")
 
 
@@ -93,6 +92,14 @@ class RouteFollowingConfig:
                                       "smaller offsets turn proportionally less (deg)", min=5.0, max=180.0)
     test_views_per_cycle: int = field(1, "test: views judged per gait cycle, their novelty summed for the one turn "
                                       "per cycle (the kinematic batch judges one)", choices=(1, 2, 4, 8))
+    travel_aligned_views: bool = field(False, "training: store each view turned to face the way the ant moved over its "
+                                       "last gait cycle rather than the way its body points")
+    scan_step_deg: float = field(10.0, "scan: the judged headings lie this far apart (deg; whole panorama columns)",
+                                 choices=(5.0, 10.0, 20.0))
+    klinokinesis_gain: float = field(8.0, "klinokinesis: θ = ±max_turn · min(1, gain · novelty / active KCs)",
+                                     min_exclusive=0.0, max=100.0)
+    klinokinesis_max_turn: float = field(0.6, "klinokinesis: the widest turn θ (at ±1 the ant turns on the spot)",
+                                         min_exclusive=0.0, max=1.0)
     forest_seed: int = field(-1, "seed of one forest (and KC wiring) shared by every trial, whose route is then "
                              "learnt once and, on the kinematic backend, tested by all trials as one batch of "
                              "agents; -1: each trial grows its own forest from its seed (trials one at a time)",
@@ -122,8 +129,9 @@ class RouteMemory:
     def __init__(self, config: RouteFollowingConfig, seed: int) -> None:
         circuit = mushroom_body(n_pn=PANORAMA_ROWS * PANORAMA_COLUMNS, n_kc=config.n_kc, seed=seed)
         self.circuit = circuit
-        steps = int(config.scan_deg // (SCAN_STEP_COLUMNS * 5.0))
-        self.rolls = np.arange(-steps, steps + 1) * SCAN_STEP_COLUMNS  # columns
+        step_columns = int(round(config.scan_step_deg / COLUMN_DEG))
+        steps = int(config.scan_deg // (step_columns * COLUMN_DEG))
+        self.rolls = np.arange(-steps, steps + 1) * step_columns  # columns
         self.learner = circuit.compile(batch=1)
         self.judge = circuit.compile(batch=len(self.rolls))
         self.views = 0
@@ -141,22 +149,33 @@ class RouteMemory:
         codes = np.concatenate([panorama_code(np.roll(panorama, k, axis=-1)) for k in self.rolls])
         values = novelty(self.judge, codes)
         ahead = int(np.flatnonzero(self.rolls == 0)[0])
-        return -self.rolls * 5.0, values, float(kc_sparsity(self.judge)[ahead])
+        return -self.rolls * COLUMN_DEG, values, float(kc_sparsity(self.judge)[ahead])
 
 
 class GuidedLearning:
-    """Training steering: pure pursuit along the route, one view stored per gait cycle."""
+    """Training steering: pure pursuit along the route, a view stored at every call.
 
-    def __init__(self, route_m: np.ndarray, memory: RouteMemory) -> None:
+    With ``travel_aligned`` each view is stored turned to face the way the ant moved over its last
+    gait cycle (``calls_per_cycle`` calls), not the way its body points: a legged body turning
+    under differential stride walks crabwise (the body axis several degrees off its path), and a
+    memory of body-aligned views would then steer the test ant, which walks along its body axis,
+    off the route (see :mod:`scenarios.turn_response`). The turned view is the panorama rolled by
+    whole columns (5°), as in the test's scan.
+    """
+
+    def __init__(self, route_m: np.ndarray, memory: RouteMemory, calls_per_cycle: int = 1,
+                 travel_aligned: bool = False) -> None:
         self.route_m, self.memory = route_m, memory
+        self.calls_per_cycle, self.travel_aligned = calls_per_cycle, travel_aligned
         self.positions: list[np.ndarray] = []
+        self.crab_deg: list[float] = []
         self.done = False
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         sensed = loop.backend.read(("position", "heading", "panorama"))
         position, heading = sensed["position"][0], float(sensed["heading"][0, 0])
         self.positions.append(position.copy())
-        self.memory.learn(sensed["panorama"])
+        self.memory.learn(np.roll(sensed["panorama"], self.view_roll_columns(heading), axis=-1))
         nearest = int(np.argmin(np.hypot(*(self.route_m - position).T)))
         target = self.route_m[min(nearest + int(round(LOOKAHEAD_M / SPACING_M)), len(self.route_m) - 1)]
         desired = np.arctan2(target[0] - position[0], target[1] - position[1])
@@ -164,30 +183,45 @@ class GuidedLearning:
         self.done = nearest >= len(self.route_m) - 1 or np.hypot(*(self.route_m[-1] - position)) < 0.3
         return float(np.clip(-error / np.radians(45.0), -1.0, 1.0)), STRIDE_RAD
 
+    def view_roll_columns(self, heading_rad: float) -> int:
+        """Columns to roll the panorama so that it faces the last cycle's direction of travel (0 when not
+        ``travel_aligned``, in the first cycle, or standing still). Headings are clockwise from +y."""
+        if not self.travel_aligned or len(self.positions) <= self.calls_per_cycle:
+            return 0
+        moved = self.positions[-1] - self.positions[-1 - self.calls_per_cycle]
+        if np.hypot(*moved) < 1e-3:
+            return 0
+        crab_deg = float(np.degrees(wrap_rad(np.arctan2(moved[0], moved[1]) - heading_rad)))  # + travel to the right
+        self.crab_deg.append(crab_deg)
+        return -int(round(crab_deg / COLUMN_DEG))  # rolling k columns faces -5k° (+ right), as in the scan
+
 
 def familiarity_turn(strategy: str, memory: RouteMemory, offsets: np.ndarray, values: np.ndarray, active: float,
-                     side: float, full_turn_deg: float = 30.0) -> float:
+                     side: float, full_turn_deg: float = 30.0, klinokinesis_gain: float = 2.0,
+                     klinokinesis_max_turn: float = 1.0) -> float:
     """The turn (θ > 0 left) the mushroom body gives for the novelty ``values`` of the scanned heading
     ``offsets`` (deg, + right; :meth:`RouteMemory.scan`); ``side`` (±1) is klinokinesis's turn direction
-    this cycle, ``active`` the share of KCs active looking ahead; scan turns at ±1 from ``full_turn_deg`` off."""
+    this cycle, ``active`` the share of KCs active looking ahead; scan turns at ±1 from ``full_turn_deg`` off,
+    klinokinesis by ±``klinokinesis_max_turn`` · min(1, ``klinokinesis_gain`` · novelty / active KCs)."""
     if strategy == "scan":
         return float(np.clip(-offsets[int(np.argmin(values))] / full_turn_deg, -1.0, 1.0))
     ahead = values[np.flatnonzero(offsets == 0.0)[0]]
     kcs = max(active * memory.learner.rates("KC").shape[1], 1.0)
-    return side * min(1.0, KLINOKINESIS_GAIN * ahead / kcs)
+    return side * klinokinesis_max_turn * min(1.0, klinokinesis_gain * ahead / kcs)
 
 
 class FamiliaritySteering:
     """Test steering: the mushroom body alone, by scanning or by klinokinesis."""
 
     def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float,
-                 views_per_cycle: int = 1, full_turn_deg: float = 30.0) -> None:
+                 views_per_cycle: int = 1, full_turn_deg: float = 30.0,
+                 klinokinesis: tuple[float, float] = (2.0, 1.0)) -> None:
         self.strategy, self.memory, self.route_m, self.reach_m = strategy, memory, route_m, reach_m
         self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
         self.log["position_m"] = []
         self.side = 1.0
         self.views_per_cycle, self.ticks, self.turn = views_per_cycle, 0, 0.0
-        self.full_turn_deg = full_turn_deg
+        self.full_turn_deg, self.klinokinesis = full_turn_deg, klinokinesis
         self.recent: list[np.ndarray] = []
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
@@ -202,7 +236,7 @@ class FamiliaritySteering:
         self.side = -self.side
         ahead = values[np.flatnonzero(offsets == 0.0)[0]]
         turn = self.turn = familiarity_turn(self.strategy, self.memory, offsets, np.sum(self.recent, axis=0), active,
-                                            self.side, self.full_turn_deg)
+                                            self.side, self.full_turn_deg, *self.klinokinesis)
         for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
                            ("turn", turn), ("kc_active", active)):
             self.log[key].append(float(value))
@@ -243,10 +277,10 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
                              brain_dt_s=CYCLE_S / config.views_per_cycle)
     steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m, config.test_views_per_cycle,
-                                   config.scan_full_turn_deg)
+                                   config.scan_full_turn_deg, (config.klinokinesis_gain, config.klinokinesis_max_turn))
     with engine:
         engine.load(world, [body])
-        guide = GuidedLearning(points, memory)
+        guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views)
         training = AgentLoop(engine, gait, training_clocks, steering=guide)
         training.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
         training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
@@ -377,7 +411,7 @@ def train_once(config: RouteFollowingConfig, world, points: np.ndarray, headings
     """The guided training walk on the kinematic unicycle (one agent); the learnt memory frozen. Its path."""
     engine, body, gait, physics_dt = make_route_engine("kinematic", config.timestep_s)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.views_per_cycle)
-    guide = GuidedLearning(points, memory)
+    guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views)
     with engine:
         engine.load(world, [body])
         training = AgentLoop(engine, gait, clocks, steering=guide)
@@ -417,7 +451,8 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
                 offsets, values, active = memory.scan(sensed["panorama"][i:i + 1])
                 ahead = values[np.flatnonzero(offsets == 0.0)[0]]
                 turn[i, 0] = familiarity_turn(config.strategy, memory, offsets, values, active, sides[i],
-                                              config.scan_full_turn_deg)
+                                              config.scan_full_turn_deg, config.klinokinesis_gain,
+                                              config.klinokinesis_max_turn)
                 stride[i, 0] = STRIDE_RAD
                 for key, value in (("time_s", engine.time), ("heading_rad", sensed["heading"][i, 0]),
                                    ("novelty", ahead), ("turn", turn[i, 0]), ("kc_active", active)):
