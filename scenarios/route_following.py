@@ -11,11 +11,20 @@ a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` 
    of it for a catchment test), facing the route's first heading, and only the mushroom body
    steers, once per gait cycle, by ``strategy``:
 
-   - ``scan``: the panorama is judged at headings within ±``scan_deg`` in 10° steps (the view
-     turned on the spot is the panorama rolled by whole columns); the ant turns toward the least
-     novel one: turn θ = clip(−offset / 30°, −1, 1) (θ > 0 turns left), stride 20°;
-   - ``klinokinesis``: the ant turns alternately left and right by θ = ±min(1, 2 · novelty / active
-     KCs), stride 20°: straight where the view is familiar, zig-zagging where it is novel.
+   - ``scan``: the panorama is judged at headings within ±``scan_deg`` in ``scan_step_deg`` (10°)
+     steps (the view turned on the spot is the panorama rolled by whole columns); the ant turns
+     toward the least novel one: turn θ = clip(−offset / ``scan_full_turn_deg`` (30°), −1, 1)
+     (θ > 0 turns left), stride 20°;
+   - ``klinokinesis``: the ant turns alternately left and right by θ = ±0.6 · min(1, 8 · novelty /
+     active KCs) (``klinokinesis_max_turn``, ``klinokinesis_gain``), stride 20°: straight where the
+     view is familiar, zig-zagging where it is novel. The widest turn stays below ±0.75, where
+     differential stride turns the ant on the spot and it stops making way (gain 2 with turns up to
+     ±1: 0/10, 52 % of checkpoints on the kinematic unicycle).
+
+``travel_aligned_views`` stores each training view turned to face the way the ant moved over its
+last gait cycle: the walking ant crabs toward the inside of a turn (MuJoCo: 7.6-8.2° at θ = ±0.2;
+``python -m scenarios.turn_response``), so body-aligned views taken in a bend face off the path, and
+a test ant that holds that heading without turning walks off the route (what happens on PyBullet).
 
 With ``forest_seed`` >= 0 every trial shares one forest (and KC wiring): the route is learnt once and
 each trial differs by its seeded release (``release_jitter_m``); on the kinematic backend the trials
@@ -29,19 +38,23 @@ camera at one ray per pixel; the physics backends render the ant's own camera.
 
 Measured with the defaults (``neuronav run route-following --backend B --trials N --seed 1 --set
 strategy=S [--set release_offset_m=D]``, 2026-11-26): kinematic, scan: 9/10 reach the end, 99 % of
-checkpoints, mean distance 0.20 m; klinokinesis: 0/10, 52 %; scan released 0.5 m right: 9/10, 67 %;
-1 m right or left: 1/10 and 0/10, 2 %. MuJoCo (3 trials): scan 3/3, 100 %; klinokinesis 0/3, 37 %.
-PyBullet (2 trials): scan 0/2, 55 %; klinokinesis 0/2, 55 %. The slow tests of
-``tests/unit/test_route_following.py`` keep the kinematic scan and klinokinesis numbers.
+checkpoints, mean distance 0.20 m; klinokinesis: 4/10, 87 %; scan released 0.5 m right: 9/10, 67 %;
+1 m right or left: 1/10 and 0/10, 2 %. MuJoCo (3 trials): scan 3/3, 100 %. PyBullet (2 trials): scan
+0/2, 55 %. The slow tests of ``tests/unit/test_route_following.py`` keep the kinematic scan and
+klinokinesis numbers. The physics setting (``--set travel_aligned_views=true --set
+scan_full_turn_deg=45 --set test_views_per_cycle=4``, seeds 1-4, 2026-11-26): PyBullet 3/4, 97.5 % of
+checkpoints (the fourth lost at 90 %); MuJoCo 4/4, 100 %. Without ``travel_aligned_views`` PyBullet
+seed 1 fails (70 %). The setting is the physics ants': on the kinematic unicycle (no sway, no crab)
+it does worse than the defaults (3/10, 79 %).
 Batched (``neuronav run route-following --trials 1000 --seed 1 --set forest_seed=1 --set
 release_jitter_m=0.2``, one shared forest, 2026-11-26): 846/1000 reach the end, 92 % of checkpoints,
 mean distance 0.34 m; 513 s for the 1000 agents on a shared 2-core machine. MuJoCo, 4 trials (seed 1,
 the defaults): 4/4, 100 %, mean distance 0.06-0.19 m; PyBullet, the same: 0/4, 50-70 % (mean 60 %). On
 PyBullet the scan swings the heading (a
 one-third turn gives 16-24° in the next cycle, and more in the cycle after) and the ant leaves the
-route on the outside of its first bend; neither a lower gain (``scan_full_turn_deg=60``: smooth, but
-it turns too late; 70 %) nor four test views per cycle (``test_views_per_cycle=4``: 60 %) brings it
-to the end (single trials, seed 1).
+route in its bends; neither a lower gain alone (``scan_full_turn_deg=60``: 70 %; 45: 1/4) nor four
+test views per cycle alone (``test_views_per_cycle=4``: 60 %) brings it to the end: the physics
+setting above does.
 """
 
 from __future__ import annotations
