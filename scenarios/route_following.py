@@ -13,7 +13,7 @@ a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` 
 
    - ``scan``: the panorama is judged at headings within ±``scan_deg`` in ``scan_step_deg`` (10°)
      steps (the view turned on the spot is the panorama rolled by whole columns); the ant turns
-     toward the least novel one: turn θ = clip(−offset / ``scan_full_turn_deg`` (30°), −1, 1)
+     toward the least novel one: turn θ = clip(−offset / ``scan_full_turn_deg``, −1, 1)
      (θ > 0 turns left), stride 20°;
    - ``klinokinesis``: the ant turns alternately left and right by θ = ±0.6 · min(1, 8 · novelty /
      active KCs) (``klinokinesis_max_turn``, ``klinokinesis_gain``), stride 20°: straight where the
@@ -21,40 +21,30 @@ a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` 
      differential stride turns the ant on the spot and it stops making way (gain 2 with turns up to
      ±1: 0/10, 52 % of checkpoints on the kinematic unicycle).
 
-``travel_aligned_views`` stores each training view turned to face the way the ant moved over its
-last gait cycle: the walking ant crabs toward the inside of a turn (MuJoCo: 7.6-8.2° at θ = ±0.2;
-``python -m scenarios.turn_response``), so body-aligned views taken in a bend face off the path, and
-a test ant that holds that heading without turning walks off the route (what happens on PyBullet).
-
-With ``forest_seed`` >= 0 every trial shares one forest (and KC wiring): the route is learnt once and
-each trial differs by its seeded release (``release_jitter_m``); on the kinematic backend the trials
-then run as one batch of point agents (:func:`run_kinematic_batch`, at most ``chunk_trials`` = 1000
-per batch), each panorama judged on its own, so that a trial's numbers do not depend on its batch.
+The scan's gain and views per stride are the body's own where the settings leave them at 0
+(:func:`body_steering`): 30° and one view on the kinematic unicycle, 45° and four views averaged on
+the physics ants, whose heading sways within a stride and overshoots at the unicycle's gain.
+``travel_aligned_views`` (on) stores each training view turned to face the way the ant moved over
+its last gait cycle: the walking ant crabs toward the inside of a turn (MuJoCo: 7.6-8.2° at θ = ±0.2,
+PyBullet 10.1-13.0°; ``python -m scenarios.turn_response``), so body-aligned views taken in a bend
+face off the path, and a test ant that holds that heading without turning walks off the route.
 
 Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came
 within ``reach_m`` of, the mean and maximum distance of the test path from the route, success (the
 last checkpoint reached), the views stored. The kinematic backend's eyes are the ant's panoramic
 camera at one ray per pixel; the physics backends render the ant's own camera.
 
-Measured with the defaults (``neuronav run route-following --backend B --trials N --seed 1 --set
-strategy=S [--set release_offset_m=D]``, 2026-11-26): kinematic, scan: 9/10 reach the end, 99 % of
-checkpoints, mean distance 0.20 m; klinokinesis: 4/10, 87 %; scan released 0.5 m right: 9/10, 67 %;
-1 m right or left: 1/10 and 0/10, 2 %. MuJoCo (3 trials): scan 3/3, 100 %. PyBullet (2 trials): scan
-0/2, 55 %. The slow tests of ``tests/unit/test_route_following.py`` keep the kinematic scan and
-klinokinesis numbers. The physics setting (``--set travel_aligned_views=true --set
-scan_full_turn_deg=45 --set test_views_per_cycle=4``, seeds 1-4, 2026-11-26): PyBullet 3/4, 97.5 % of
-checkpoints (the fourth lost at 90 %); MuJoCo 4/4, 100 %. Without ``travel_aligned_views`` PyBullet
-seed 1 fails (70 %). The setting is the physics ants': on the kinematic unicycle (no sway, no crab)
-it does worse than the defaults (3/10, 79 %).
+Measured with the defaults (2026-11-26; README "route-following" has the commands): seeds 1-4,
+``neuronav compare``: kinematic 4/4, MuJoCo 4/4, PyBullet 3/4 (98 % of checkpoints); seeds 5-10:
+MuJoCo 6/6, PyBullet 5/6. Kinematic, seeds 1-10: scan 9/10 reach the end, 99 % of checkpoints, mean
+distance 0.20 m; klinokinesis 4/10, 87 %; scan released 0.5 m right: 9/10, 67 %; 1 m right or left:
+1/10 and 0/10, 2 %. Klinokinesis on MuJoCo (seeds 1-3): 0/3, 63 %. The slow tests of
+``tests/unit/test_route_following.py`` keep the kinematic scan and klinokinesis numbers. With the
+unicycle's settings on the physics ants (``--set travel_aligned_views=false --set
+scan_full_turn_deg=30 --set test_views_per_cycle=1``): MuJoCo 4/4, PyBullet 0/4 (50-70 %).
 Batched (``neuronav run route-following --trials 1000 --seed 1 --set forest_seed=1 --set
-release_jitter_m=0.2``, one shared forest, 2026-11-26): 846/1000 reach the end, 92 % of checkpoints,
-mean distance 0.34 m; 513 s for the 1000 agents on a shared 2-core machine. MuJoCo, 4 trials (seed 1,
-the defaults): 4/4, 100 %, mean distance 0.06-0.19 m; PyBullet, the same: 0/4, 50-70 % (mean 60 %). On
-PyBullet the scan swings the heading (a
-one-third turn gives 16-24° in the next cycle, and more in the cycle after) and the ant leaves the
-route in its bends; neither a lower gain alone (``scan_full_turn_deg=60``: 70 %; 45: 1/4) nor four
-test views per cycle alone (``test_views_per_cycle=4``: 60 %) brings it to the end: the physics
-setting above does.
+release_jitter_m=0.2``, one shared forest): 846/1000 reach the end, 92 % of checkpoints, mean
+distance 0.34 m; 513 s for the 1000 agents on a shared 2-core machine.
 """
 
 from __future__ import annotations
@@ -101,11 +91,14 @@ class RouteFollowingConfig:
     landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
     timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
                               min=1e-4, max=0.008)
-    scan_full_turn_deg: float = field(30.0, "scan: the least novel heading this far off (or more) turns at θ = ±1; "
-                                      "smaller offsets turn proportionally less (deg)", min=5.0, max=180.0)
-    test_views_per_cycle: int = field(1, "test: views judged per gait cycle, their novelty summed for the one turn "
-                                      "per cycle (the kinematic batch judges one)", choices=(1, 2, 4, 8))
-    travel_aligned_views: bool = field(False, "training: store each view turned to face the way the ant moved over its "
+    scan_full_turn_deg: float = field(0.0, "scan: the least novel heading this far off (or more) turns at θ = ±1; "
+                                      "smaller offsets turn proportionally less (deg); 0: the body's own (30 on the "
+                                      "kinematic unicycle, 45 on the physics ants)", min=0.0, max=180.0)
+    test_views_per_cycle: int = field(0, "test: views judged per gait cycle, their novelty averaged for the one turn "
+                                      "per cycle (the kinematic batch judges one); 0: the body's own (1 on the "
+                                      "kinematic unicycle, 4 on the physics ants, whose heading sways in a stride)",
+                                      choices=(0, 1, 2, 4, 8))
+    travel_aligned_views: bool = field(True, "training: store each view turned to face the way the ant moved over its "
                                        "last gait cycle rather than the way its body points")
     scan_step_deg: float = field(10.0, "scan: the judged headings lie this far apart (deg; whole panorama columns)",
                                  choices=(5.0, 10.0, 20.0))
@@ -119,6 +112,18 @@ class RouteFollowingConfig:
                              min=-1, max=2**31 - 1)
     release_jitter_m: float = field(0.0, "each trial's release moved by a seeded Gaussian offset of this standard "
                                     "deviation on each axis (m)", min=0.0, max=5.0)
+
+
+# The scan's steering constants per body where the settings leave them at 0 (measured, seeds 1-4 and 1-10:
+# the physics ants overshoot at the unicycle's gain and sway within a stride; README "route-following").
+UNICYCLE_STEERING = {"scan_full_turn_deg": 30.0, "test_views_per_cycle": 1}
+PHYSICS_ANT_STEERING = {"scan_full_turn_deg": 45.0, "test_views_per_cycle": 4}
+
+
+def body_steering(config: RouteFollowingConfig, backend: str) -> RouteFollowingConfig:
+    """The settings with the scan gain and test views per cycle left at 0 replaced by the body's own."""
+    own = UNICYCLE_STEERING if backend == "kinematic" else PHYSICS_ANT_STEERING
+    return replace(config, **{key: value for key, value in own.items() if not getattr(config, key)})
 
 
 def wrap_rad(angle):
@@ -197,8 +202,10 @@ class GuidedLearning:
         return float(np.clip(-error / np.radians(45.0), -1.0, 1.0)), STRIDE_RAD
 
     def view_roll_columns(self, heading_rad: float) -> int:
-        """Columns to roll the panorama so that it faces the last cycle's direction of travel (0 when not
-        ``travel_aligned``, in the first cycle, or standing still). Headings are clockwise from +y."""
+        """Columns to roll the panorama so that it faces the way the ant moved over its last gait cycle (the
+        chord from the position a cycle ago; 0 when not ``travel_aligned``, in the first cycle, or standing
+        still). Headings are clockwise from +y. The body's sway within the stride is rolled out with the
+        crab; in a steady turn the chord lags the current direction of travel by half the cycle's turn."""
         if not self.travel_aligned or len(self.positions) <= self.calls_per_cycle:
             return 0
         moved = self.positions[-1] - self.positions[-1 - self.calls_per_cycle]
@@ -238,7 +245,7 @@ class FamiliaritySteering:
         self.recent: list[np.ndarray] = []
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
-        """Called ``views_per_cycle`` times per gait cycle; turns once per cycle, on the novelty summed over
+        """Called ``views_per_cycle`` times per gait cycle; turns once per cycle, on the novelty averaged over
         the last ``views_per_cycle`` views (so that the body's sway within a stride averages out)."""
         sensed = loop.backend.read(("position", "heading", "panorama"))
         offsets, values, active = self.memory.scan(sensed["panorama"])
@@ -248,7 +255,7 @@ class FamiliaritySteering:
             return self.turn, STRIDE_RAD
         self.side = -self.side
         ahead = values[np.flatnonzero(offsets == 0.0)[0]]
-        turn = self.turn = familiarity_turn(self.strategy, self.memory, offsets, np.sum(self.recent, axis=0), active,
+        turn = self.turn = familiarity_turn(self.strategy, self.memory, offsets, np.mean(self.recent, axis=0), active,
                                             self.side, self.full_turn_deg, *self.klinokinesis)
         for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
                            ("turn", turn), ("kc_active", active)):
@@ -282,6 +289,7 @@ def trial_release(config: RouteFollowingConfig, points: np.ndarray, headings: np
 def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
                 landscape: bool = False) -> tuple[dict, dict]:
     """One trial: train along the route, test from the release point; the metrics row and the logs."""
+    config = body_steering(config, backend_name)
     points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
     world = forest_world(points, seed=world_seed(config, seed))
     engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s)
@@ -385,6 +393,7 @@ class RouteFollowing(Scenario):
 
     def run(self, config: RouteFollowingConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
+        config = body_steering(config, backend)
         if backend == "kinematic" and config.forest_seed >= 0 and config.test_views_per_cycle == 1:
             rows, logs = run_kinematic_batch(config, [seed + i for i in range(trials)], landscape=config.landscape)
             rows = [dict(row, trial=i, seed=seed + i) for i, row in enumerate(rows)]
@@ -441,6 +450,7 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
     A trial's numbers do not depend on the batch: its release comes from its seed, and every agent's
     panorama is judged on its own, exactly as a trial run alone.
     """
+    config = body_steering(config, "kinematic")
     points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
     world = forest_world(points, seed=config.forest_seed)
     memory = RouteMemory(config, config.forest_seed)

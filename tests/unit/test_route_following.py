@@ -197,9 +197,35 @@ def test_travel_aligned_views_face_the_way_the_ant_moved_over_its_last_cycle():
 
 def test_travel_aligned_views_change_nothing_on_the_unicycle_that_walks_along_its_axis():
     """The kinematic unicycle does not crab: every stored view is rolled by 0 columns, so the test path is the same."""
-    config = RouteFollowingConfig(route_m=3.0, duration_s=10.0, n_kc=500, landscape=False)
+    config = RouteFollowingConfig(route_m=3.0, duration_s=10.0, n_kc=500, landscape=False, travel_aligned_views=False)
     _, body = route_trial(config, "kinematic", seed=1)
     from dataclasses import replace
 
     _, travel = route_trial(replace(config, travel_aligned_views=True), "kinematic", seed=1)
     assert np.array_equal(body["position_m"], travel["position_m"])
+
+
+def test_the_scan_gain_and_test_views_left_at_0_are_the_bodys_own():
+    from scenarios.route_following import body_steering
+
+    unicycle = body_steering(RouteFollowingConfig(), "kinematic")
+    assert (unicycle.scan_full_turn_deg, unicycle.test_views_per_cycle) == (30.0, 1)
+    for backend in ("mujoco", "pybullet"):
+        ant = body_steering(RouteFollowingConfig(), backend)
+        assert (ant.scan_full_turn_deg, ant.test_views_per_cycle) == (45.0, 4)
+    chosen = body_steering(RouteFollowingConfig(scan_full_turn_deg=60.0, test_views_per_cycle=2), "pybullet")
+    assert (chosen.scan_full_turn_deg, chosen.test_views_per_cycle) == (60.0, 2)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
+def test_the_physics_ants_follow_the_route_with_their_own_steering(backend):
+    """Measured (seed 1, defaults): MuJoCo and PyBullet reach the end, every checkpoint; PyBullet with the
+    unicycle's settings (body-aligned views, gain 30, one view per stride): 60 % of checkpoints, not the end."""
+    row, _ = route_trial(RouteFollowingConfig(landscape=False), backend, seed=1)
+    assert row["success"] and row["checkpoints_reached"] == 1.0 and row["mean_distance_m"] < 0.3
+    if backend == "pybullet":
+        unicycle_settings = RouteFollowingConfig(landscape=False, travel_aligned_views=False, scan_full_turn_deg=30.0,
+                                                 test_views_per_cycle=1)
+        row, _ = route_trial(unicycle_settings, backend, seed=1)
+        assert not row["success"] and row["checkpoints_reached"] <= 0.8
