@@ -38,7 +38,7 @@ Measured with the defaults (2026-11-26; README "route-following" has the command
 ``neuronav compare``: kinematic 4/4, MuJoCo 4/4, PyBullet 3/4 (98 % of checkpoints); seeds 5-10:
 MuJoCo 6/6, PyBullet 5/6. Kinematic, seeds 1-10: scan 9/10 reach the end, 99 % of checkpoints, mean
 distance 0.20 m; klinokinesis 4/10, 87 %; scan released 0.5 m right: 9/10, 67 %; 1 m right or left:
-1/10 and 0/10, 2 %. Klinokinesis on MuJoCo (seeds 1-3): 0/3, 63 %. The slow tests of
+1/10 and 0/10, 2 %. Klinokinesis on MuJoCo (seeds 1-3): 0/3, 63 %; on PyBullet (1-2): 1/2, 75 %. The slow tests of
 ``tests/unit/test_route_following.py`` keep the kinematic scan and klinokinesis numbers. With the
 unicycle's settings on the physics ants (``--set travel_aligned_views=false --set
 scan_full_turn_deg=30 --set test_views_per_cycle=1``): MuJoCo 4/4, PyBullet 0/4 (50-70 %).
