@@ -1,6 +1,6 @@
 """The mushroom body: a view's familiarity from a sparse Kenyon-cell code and one-shot depression.
 
-After Ardin et al. 2016 and Sun et al. 2020 (``docs/parameters.md`` §7):
+After Ardin et al. 2016 and Sun et al. 2020 (``docs/parameters.md`` §9):
 
 - **PN** (projection neurons, an ``input`` population): one view's code, z-scored across its
   values (:func:`pn_code`), either a down-sampled grey panorama (:func:`panorama_code`, Ardin's

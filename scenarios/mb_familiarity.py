@@ -1,5 +1,5 @@
 """Mushroom-body familiarity measured on ray-cast forest views: the rotational familiarity function
-and the capacity (``docs/parameters.md`` §7; Ardin et al. 2016, Baddeley et al. 2012).
+and the capacity (``docs/parameters.md`` §9; Ardin et al. 2016, Baddeley et al. 2012).
 
 Views are the desert ant's panoramic camera (72 x 72, the whole sphere; one ray per pixel here)
 rendered by the kinematic backend's ray caster in a seeded forest, at points of a meandering route

@@ -1,6 +1,6 @@
 """Route following by visual familiarity: a mushroom body learns a route's views, then steers the ant along it.
 
-After Ardin et al. 2016, Baddeley et al. 2012 and Kodzhabashev & Mangan 2015 (``docs/parameters.md`` §7).
+After Ardin et al. 2016, Baddeley et al. 2012 and Kodzhabashev & Mangan 2015 (``docs/parameters.md`` §9).
 Each trial grows a seeded forest about a fixed meandering route (:mod:`scenarios.mb_familiarity`:
 a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` long).
 
