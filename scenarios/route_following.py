@@ -44,7 +44,8 @@ unicycle's settings on the physics ants (``--set travel_aligned_views=false --se
 scan_full_turn_deg=30 --set test_views_per_cycle=1``): MuJoCo 4/4, PyBullet 0/4 (50-70 %).
 Batched (``neuronav run route-following --trials 1000 --seed 1 --set forest_seed=1 --set
 release_jitter_m=0.2``, one shared forest): 846/1000 reach the end, 92 % of checkpoints, mean
-distance 0.34 m; 513 s for the 1000 agents on a shared 2-core machine.
+distance 0.34 m; 513-522 s for the 1000 agents on a shared 2-core machine (re-run with the
+travel-aligned views on: the same numbers).
 """
 
 from __future__ import annotations
