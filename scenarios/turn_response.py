@@ -7,6 +7,10 @@ inside of the turn. How much, and how much it turns per cycle, depend on the phy
 Route following by stored views is sensitive to both (:mod:`scenarios.route_following`): a view stored
 while turning faces off the path, and a test ant that keeps that heading without turning walks off it.
 
+:mod:`scenarios.calibrate_unicycle` measures turn rate and speed over a (θ, stride) grid through the
+locomotion scenario, for the kinematic backend's table; this module adds the crab angle, on the bodies
+route following drives (:func:`scenarios.visual_setup.make_engine`, the unicycle included).
+
 For each backend and each turn command θ (stride 20°, flat ground, 8 gait cycles; the first 3 left
 out), prints the heading change per cycle (deg, + clockwise, i.e. to the right) and the crab angle
 (deg; mean heading minus the chord's direction, + the body points right of its path).
