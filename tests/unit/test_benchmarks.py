@@ -1,0 +1,91 @@
+"""The benchmarks' quick modes: each prints CPU time next to wall time, and the locomotion benchmark's
+raw side does the same walk as its loop (otherwise its loop/raw ratio measures nothing).
+
+Nothing here is timed: the scripts run with tiny sizes and only what they print is checked.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+QUICK = {
+    "locomotion_speed": ("--seconds", "0.8", "--repeats", "1", "--gaits", "tripod", "--backends", "mujoco,pybullet"),
+    "vision_speed": ("--frames", "2", "--seconds", "0.3", "--agents", "10", "--backends", "kinematic,mujoco"),
+    "path_integration_1000": ("--trials", "10", "--baseline-trials", "1", "--repeats", "1"),
+    "startup": ("--repeats", "1"),
+    "sweep_scaling": ("--trials", "4", "--steps", "100", "--repeats", "1", "--no-dask"),
+}
+NUMBER = r"(\d+(?:\.\d+)?)"
+
+
+@functools.cache
+def quick_run(name: str) -> subprocess.CompletedProcess:
+    """The benchmark ``name`` run once in its quick mode (shared by the tests that read its output)."""
+    env = dict(os.environ, MPLBACKEND="Agg", MUJOCO_GL="egl")
+    return subprocess.run([sys.executable, str(BENCHMARKS / f"{name}.py"), *QUICK[name]], capture_output=True,
+                          text=True, env=env, timeout=300)
+
+
+def output_of(name: str) -> str:
+    done = quick_run(name)
+    assert done.returncode == 0, f"{name} exited {done.returncode}:\n{done.stdout}\n{done.stderr}"
+    return done.stdout
+
+
+@pytest.mark.parametrize("name", sorted(QUICK))
+def test_benchmark_prints_cpu_and_wall_time(name):
+    out = output_of(name)
+    assert re.search(r"\bcpu\b", out, re.IGNORECASE), out
+    assert re.search(r"\bwall\b", out, re.IGNORECASE), out
+
+
+@pytest.mark.parametrize("name, verdicts", [
+    ("path_integration_1000", 2),  # the speed-up and the 3 s target
+    ("vision_speed", 2),  # the MuJoCo panorama and beacon targets
+    ("locomotion_speed", 1),
+])
+def test_single_threaded_targets_are_judged_on_cpu_time(name, verdicts):
+    judged = [line for line in output_of(name).splitlines() if re.search(r"\b(met|MISSED)\b", line)]
+    assert len(judged) == verdicts, judged
+    assert all(re.search(r"on CPU", line) for line in judged), judged
+
+
+def test_startup_gives_wall_and_cpu_seconds_per_command():
+    rows = re.findall(rf"^(1 s locomotion run.*|  the same.*|neuronav list)\s+{NUMBER}\s+{NUMBER}\s*$",
+                      output_of("startup"), re.MULTILINE)
+    assert len(rows) == 4, rows
+    assert all(float(cpu) > 0.0 for _, _, cpu in rows)  # the commands' own CPU time, not this process's
+
+
+def test_sweep_scaling_gives_summed_cpu_next_to_wall():
+    out = output_of("sweep_scaling")
+    for variant in ("1 worker", "2 workers"):
+        row = re.search(rf"^{variant}.*?\s{NUMBER}\s+{NUMBER}x\s+{NUMBER}\s+{NUMBER}x", out, re.MULTILINE)
+        assert row is not None, out
+        assert float(row.group(3)) > 0.0
+    # two workers run the trials of one: their summed CPU time cannot be a fraction of it
+    two = re.search(rf"^2 workers.*?\s{NUMBER}x\s+{NUMBER}\s+{NUMBER}x", out, re.MULTILINE)
+    assert float(two.group(3)) > 0.8, out
+    assert "identical per-trial results (every variant, every round): yes" in out
+
+
+@pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
+def test_locomotion_raw_side_does_the_same_walk_as_the_loop(backend):
+    out = output_of("locomotion_speed")
+    row = re.search(rf"^{backend}\s+tripod\s.*?\s{NUMBER}/{NUMBER}\s+{NUMBER}/{NUMBER}\s+(yes|NO)\s*$", out,
+                    re.MULTILINE)
+    assert row is not None, out
+    loop_m, raw_m, loop_low_m, raw_low_m = (float(row.group(i)) for i in range(1, 5))
+    assert loop_m > 0.1  # the loop walked (0.8 s: a ramp-up cycle and a little more)
+    assert raw_m == pytest.approx(loop_m, rel=0.05)
+    assert loop_low_m > 0.35 and raw_low_m == pytest.approx(loop_low_m, rel=0.05)  # both stayed up (0.43 m at rest)
+    assert row.group(5) == "yes"
+    assert "SAME WALK: yes" in out
