@@ -77,6 +77,7 @@ import numpy as np
 from neuronav import Circuit, ConfigError, PortError, SensorSpec
 
 N_CELLS = 32
+MAX_CELLS = 10_000  # ring_attractor's bound: its n_cells² E -> E weights stay under 800 MB
 SIGMA_RAD = float(np.deg2rad(125.0))
 CUE_AMPLITUDE = 3.0
 DT_S = 1e-4
@@ -120,7 +121,7 @@ def ring_attractor(
     Parameters
     ----------
     n_cells : int
-        Number of excitatory cells N (at least 4).
+        Number of excitatory cells N (4 to :data:`MAX_CELLS`).
     sigma_rad : float
         Width of the Gaussian E -> E weight profile (the paper: 120–130°).
     w_ee : float
@@ -150,8 +151,9 @@ def ring_attractor(
     ConfigError
         When ``n_cells`` or ``sigma_rad`` or a time constant is out of range.
     """
-    if not isinstance(n_cells, (int, np.integer)) or isinstance(n_cells, bool) or n_cells < 4:
-        raise ConfigError(f"ring_attractor: n_cells must be an int >= 4, got {n_cells!r}")
+    # At most MAX_CELLS: the dense E -> E matrix (n_cells², float64) stays under 800 MB.
+    if not isinstance(n_cells, (int, np.integer)) or isinstance(n_cells, bool) or not 4 <= n_cells <= MAX_CELLS:
+        raise ConfigError(f"ring_attractor: n_cells must be an int in [4, {MAX_CELLS}], got {n_cells!r}")
     n_cells = int(n_cells)
     for label, value in (("sigma_rad", sigma_rad), ("tau_e_s", tau_e_s), ("tau_i_s", tau_i_s)):
         if not isinstance(value, (int, float, np.floating)) or not np.isfinite(value) or value <= 0:
@@ -215,7 +217,8 @@ def bump_heading_rad(rates: np.ndarray) -> np.ndarray:
         Bump direction in (-pi, pi]; 0 when every rate is 0 (no bump).
     """
     rates = np.atleast_2d(np.asarray(rates, dtype=float))
-    return np.angle(rates @ np.exp(1j * cell_angles_rad(rates.shape[1])))
+    # Summed row by row, not a BLAS product: an agent's bump is then the same bit for bit in any batch.
+    return np.angle((rates * np.exp(1j * cell_angles_rad(rates.shape[1]))).sum(axis=1))
 
 
 def settle(sim, cues: np.ndarray, duration_s: float = SETTLE_S) -> np.ndarray:

@@ -31,7 +31,7 @@ from neuronav.rundir import (
 )
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.sweep_figures import METRICS_FIGURE, metrics_figure
-from neuronav.trials import merge_timeseries
+from neuronav.trials import leading_series, merge_timeseries
 
 
 def first_failure(rows: list[dict]) -> str:
@@ -66,8 +66,10 @@ class Assembler:
     def assemble(self, point: GridPoint) -> dict:
         """Write the point's summary.json, trials.csv, timeseries.h5 and figures from its parts.
 
-        A point whose parts have not changed since its summary was written is kept as it is. The
-        returned summary carries the rows under ``_rows`` (not written).
+        A point whose parts have not changed since its summary was written, and whose result files
+        are all there, is kept as it is; a missing one is rebuilt. Time series that cannot be joined
+        are named on stderr and under ``timeseries_problems`` in the summary. The returned summary
+        carries the rows under ``_rows`` (not written).
         """
         parts = list_parts(self.parts_folder(point))
         names = [path.name for _, _, path in parts]
@@ -78,8 +80,13 @@ class Assembler:
         rows, pieces, metas = self._read(parts)
         aggregates, note = self._aggregates(rows, metas, point.config)
         simulated = max((m.get("simulated_time_s", 0.0) for m in metas), default=0.0)
-        result = ScenarioResult(trials=rows, timeseries=merge_timeseries(pieces, self.trials),
-                                aggregates=aggregates, simulated_time_s=simulated)
+        problems: list[str] = []
+        leading = leading_series(self.scenario, point.config, self.backend)
+        timeseries = merge_timeseries(pieces, self.trials, leading, problems)
+        for line in problems:
+            sys.stderr.write(f"neuronav: warning: {self.name}{' ' + point.name if point.name else ''}: "
+                             f"time series {line}\n")
+        result = ScenarioResult(trials=rows, timeseries=timeseries, aggregates=aggregates, simulated_time_s=simulated)
         folder = self.point_folder(point)
         folder.mkdir(parents=True, exist_ok=True)
         figure_paths, extra = self._figures(result, point, folder)
@@ -88,6 +95,7 @@ class Assembler:
             **({"grid": point.labels} if point.labels else {}),
             "compute_time_s": compute_s, "chunks": len(parts), "parts": names,
             "figures_requested": self.figures, "first_error": first_failure(rows),
+            "timeseries": sorted(timeseries), **({"timeseries_problems": problems} if problems else {}),
             **({"aggregates_note": note} if note else {}),
         })
         summary = write_run_directory(
@@ -106,8 +114,10 @@ class Assembler:
             return None
         try:
             summary = json.loads(existing.read_text())
+            # Every result file the summary lists must still be there; a missing one is rebuilt from the parts.
             if (summary.get("parts") == names and summary.get("figures_requested") == self.figures
-                    and (folder / "trials.csv").exists() and all((folder / f).exists() for f in summary["figures"])):
+                    and (folder / "trials.csv").exists() and all((folder / f).exists() for f in summary["figures"])
+                    and "timeseries" in summary and (folder / "timeseries.h5").exists() == bool(summary["timeseries"])):
                 return summary
         except (OSError, ValueError, KeyError, TypeError):
             pass

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from neuronav.rundir import write_atomic
+
 KIND_COLOURS = {"input": "#8dd3c7", "rate": "#80b1d3", "leaky": "#bebada", "integrator": "#fdb462",
                 "output": "#fb8072"}
 KIND_ORDER = ("input", "rate", "leaky", "integrator", "output")
@@ -39,7 +41,8 @@ def new_figure(figsize=(6.0, 4.0), nrows: int = 1, ncols: int = 1, **subplot_kw)
 
 
 def save(fig, path, tight: bool = True) -> Path:
-    """Lay out (unless ``tight`` is False: a figure with a shared colourbar) and write a PNG, drawn once.
+    """Lay out (unless ``tight`` is False: a figure with a shared colourbar) and write a PNG, drawn once,
+    atomically (:func:`neuronav.rundir.write_atomic`).
 
     At the figure's own 100 dpi (a 6 × 4 in figure is 600 × 400 px), so the text extents the layout
     measured are the ones the save draws. The layout engine ``tight_layout`` leaves behind is dropped:
@@ -51,8 +54,12 @@ def save(fig, path, tight: bool = True) -> Path:
     if tight:
         fig.tight_layout()
         fig.set_layout_engine(None)  # else savefig draws it once more to run a placeholder engine
-    fig.savefig(path, dpi=100, pil_kwargs={"compress_level": 1})
-    return Path(path)
+    path = Path(path)
+    # As the data files are written: a temporary file renamed over the name, so a link standing
+    # there is replaced, never written through, and a reader never sees half a figure.
+    write_atomic(path, lambda stream: fig.savefig(stream, format=path.suffix[1:] or "png", dpi=100,
+                                                  pil_kwargs={"compress_level": 1}))
+    return path
 
 
 def break_at_wraps(time, angle_rad, period_rad: float = 2 * np.pi):

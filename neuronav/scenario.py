@@ -26,7 +26,8 @@ class ScenarioResult:
         One dict per trial: ``trial``, ``seed``, ``success``, ``status`` (``ok``/``failed``),
         ``error`` (text, empty when ok) and the scenario's metrics (numbers).
     timeseries : dict of str to ndarray
-        Recorded signals, each with the trial as its first axis (or documented otherwise).
+        Recorded signals, each with the trial as its first axis: one row per trial, or per first
+        trial for the names in :meth:`Scenario.leading_series`.
     aggregates : dict of str to float
         Metrics defined over all trials rather than per trial (e.g. Stone's tortuosity).
     simulated_time_s : float
@@ -95,4 +96,13 @@ class Scenario(ABC):
 
     def smoke_config(self) -> dict[str, Any]:
         """Overrides that make a very short run, for conformance tests."""
+        return {}
+
+    def leading_series(self, config: Any, backend: str) -> dict[str, int]:
+        """The time series kept for the run's first k trials only (name -> k), e.g. neural activity
+        recorded for a few trials, or data shared by all trials stored once (k = 1).
+
+        Every other series holds one row per trial. A batch of trials records these for its own
+        first trials; the runner keeps those of trials 0 .. k - 1 whatever the chunking.
+        """
         return {}

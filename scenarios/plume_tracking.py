@@ -64,6 +64,7 @@ from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.plume import OdourSource, PlumeConfig, WindConfig
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.trials import stack_padded
 from neuronav.video import VideoRecorder
 from neuronav.world import World
 from scenarios import EVERY_BACKEND
@@ -275,22 +276,15 @@ class PlumeTracking(Scenario):
         return write_plume_figures(result, config, Path(out_dir))
 
 
-def _pad(arrays: list[np.ndarray]) -> np.ndarray:
-    """Arrays of unequal first length as one NaN-padded array (len(arrays), longest, ...)."""
-    longest = max(len(a) for a in arrays)
-    out = np.full((len(arrays), longest, *arrays[0].shape[1:]), np.nan)
-    for i, a in enumerate(arrays):
-        out[i, : len(a)] = a
-    return out
-
-
 def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
     """Per-trial logs as arrays with the trial first: samples and gait cycles NaN-padded, the plume
-    rasters stacked, the puffs NaN-padded; ``branch`` codes index :data:`brains.plume_tracking.BRANCHES`."""
-    packed = {key: _pad([log[key] for log in logs])
+    rasters stacked, the puffs NaN-padded (:func:`neuronav.trials.stack_padded`, as chunks are joined);
+    ``branch`` codes index :data:`brains.plume_tracking.BRANCHES`."""
+    packed = {key: stack_padded([log[key] for log in logs], float)
               for key in ("time_s", "position_m", "heading_rad", "odour", "wind_mps", "cycle_time_s", "branch",
                           "turn", "stride_rad")}
     packed["plume_raster"] = np.stack([log["plume_raster"] for log in logs])
-    packed["puffs_m"] = _pad([log["puffs_m"] if len(log["puffs_m"]) else np.full((1, 2), np.nan) for log in logs])
+    packed["puffs_m"] = stack_padded([log["puffs_m"] if len(log["puffs_m"]) else np.full((1, 2), np.nan)
+                                      for log in logs], float)
     return packed
 

@@ -386,6 +386,10 @@ class RouteFollowing(Scenario):
     def smoke_config(self) -> dict:
         return {"route_m": 2.0, "duration_s": 4.0, "n_kc": 500, "landscape": False}
 
+    def leading_series(self, config: RouteFollowingConfig, backend: str) -> dict[str, int]:
+        """The route (the same in every trial) and the first trial's landscape, stored once."""
+        return dict.fromkeys(("route_m", "landscape_x_m", "landscape_y_m", "landscape_novelty"), 1)
+
     def check(self, config: RouteFollowingConfig, backend: str) -> None:
         from neuronav.loop import integer_ratio
 

@@ -14,6 +14,7 @@ from neuronav.rundir import list_parts, read_part
 from neuronav.runner import merge_timeseries, run_scenario
 from neuronav.scenario import Scenario, ScenarioResult
 from neuronav.sweep import chunk_size_for, execute, plan_chunks, run_sweep
+from neuronav.trials import pad_value
 
 SHORT = {"outbound_steps": 100, "inbound_steps": 100, "record_trials": 2}
 
@@ -90,6 +91,56 @@ def test_merge_timeseries_joins_chunks_in_trial_order():
     assert np.isnan(merged["x"][6])  # no chunk covered trial 6
     np.testing.assert_array_equal(merged["head"], [0.0, 1.0])  # the prefix up to the first gap
     np.testing.assert_array_equal(merged["fixed"], np.ones(5))  # not per trial: the first chunk's
+
+
+def one_batch(rows):
+    """What one batch writes for these trials: NaN-padded to the longest (float rows)."""
+    longest = max(len(r) for r in rows)
+    out = np.full((len(rows), longest), np.nan)
+    for i, r in enumerate(rows):
+        out[i, :len(r)] = r
+    return out
+
+
+def test_merge_pads_chunks_of_unequal_length_to_the_file_of_one_batch():
+    trials = [np.arange(n, dtype=float) for n in (2, 5, 3, 1)]  # per-cycle logs of unequal length
+    pieces = [(0, 2, {"x": one_batch(trials[:2]), "code": np.array([[1, 2, 0], [3, 4, 5]], np.int16)}),
+              (2, 2, {"x": one_batch(trials[2:]), "code": np.array([[6], [7]], np.int16)})]
+    problems = []
+    merged = merge_timeseries(pieces, 4, problems=problems)
+    expected = one_batch(trials)
+    assert merged["x"].shape == expected.shape and merged["x"].dtype == expected.dtype
+    np.testing.assert_array_equal(merged["x"], expected)  # NaN where NaN
+    assert merged["code"].dtype == np.int16  # integers keep their type, padded with pad_value: 0
+    np.testing.assert_array_equal(merged["code"], [[1, 2, 0], [3, 4, 5], [6, 0, 0], [7, 0, 0]])
+    assert problems == []
+    assert np.isnan(pad_value(np.float32)) and pad_value(np.int64) == 0 and pad_value(bool) is False
+
+
+def test_merge_keeps_a_leading_series_of_the_first_k_trials_whatever_the_chunking():
+    def chunk(first, count, recorded):
+        rows = np.arange(first, first + min(count, recorded), dtype=float)[:, None] * np.ones(3)
+        return first, count, {"activity": rows, "route": np.ones((1, 4))}
+
+    leading = {"activity": 2, "route": 1}
+    for chunks in ([(0, 5)], [(0, 3), (3, 2)], [(t, 1) for t in range(5)]):
+        merged = merge_timeseries([chunk(f, c, 2) for f, c in chunks], 5, leading)
+        np.testing.assert_array_equal(merged["activity"], [[0.0] * 3, [1.0] * 3])
+        np.testing.assert_array_equal(merged["route"], np.ones((1, 4)))
+    empty = merge_timeseries([(0, 2, {"activity": np.zeros((0, 3))})], 2, {"activity": 0})
+    assert empty["activity"].shape == (0, 3)  # as one batch with nothing recorded writes it
+
+
+def test_merge_names_what_it_cannot_join_instead_of_dropping_it_silently(capsys):
+    pieces = [(0, 1, {"ragged": np.zeros((1, 2)), "scene": np.zeros(3)}),
+              (1, 1, {"ragged": np.zeros((1, 2, 2)), "scene": np.ones(3)})]
+    problems = []
+    merged = merge_timeseries(pieces, 2, problems=problems)
+    assert "ragged" not in merged and any(p.startswith("ragged: left out") for p in problems)
+    np.testing.assert_array_equal(merged["scene"], np.zeros(3))
+    assert any(p.startswith("scene: not per trial and not the same") for p in problems)
+    merge_timeseries(pieces, 2)  # without a list to fill: a warning on stderr
+    assert "neuronav: warning: time series ragged: left out" in capsys.readouterr().err
 
 
 # -- failures ------------------------------------------------------------------------------------------
