@@ -11,7 +11,8 @@ Exit status
     the scenario allows, a scheduler address that is not a Dask scheduler or cannot be reached, a
     run folder that may not be written into, or one that holds results of other settings. One line
     on stderr, no traceback.
-    130: interrupted; the finished trials are kept.
+    130: interrupted (Ctrl-C, however many: the run stops at once and its workers are killed); the
+    finished trials are kept.
 
 Run folders
     A run writes only into a folder that does not exist yet, an empty folder, or a folder a
@@ -27,17 +28,23 @@ Resuming
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
+import signal
 import sys
 from pathlib import Path
+from typing import Any
 
 from neuronav import registry
 from neuronav.config import describe
 from neuronav.errors import ConfigError, NeuronavError
+from neuronav.executors import sigint_held
 from neuronav.figure_process import figure_process
 from neuronav.rundir import check_out_dir, claim_out_dir, write_atomic
 from neuronav.runner import load_scenario, run_scenario
 from neuronav.sweep import plan, run_sweep
+
+INTERRUPTED = "neuronav: interrupted; finished trials are kept — rerun the same command to resume\n"
 
 
 class _Parser(argparse.ArgumentParser):
@@ -102,7 +109,10 @@ def main(argv: list[str] | None = None, figure_helper: bool = False) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     args = _parser().parse_args(argv)
     # The command line draws figures in a helper that imports matplotlib while the trials run.
-    with figure_process(figure_helper and args.command != "list" and getattr(args, "figures", False)):
+    with contextlib.ExitStack() as stack:
+        with sigint_held():  # a Ctrl-C while forking the helper is not lost
+            stack.enter_context(figure_process(figure_helper and args.command != "list"
+                                               and getattr(args, "figures", False)))
         return _command(args, argv)
 
 
@@ -138,7 +148,7 @@ def _command(args, argv: list[str]) -> int:
                          "or fewer trials\n")
         return 1
     except KeyboardInterrupt:
-        sys.stderr.write("neuronav: interrupted; finished trials are kept — rerun the same command to resume\n")
+        sys.stderr.write(INTERRUPTED)
         return 130
 
 
@@ -250,20 +260,17 @@ def _cell(value) -> str:
 
 
 def _compare_figure(rows: list[dict], metrics: list[str], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    # Imported here: matplotlib only for a command that draws. Saved as every figure is (a temporary
+    # file renamed over the name), so a link standing at compare.png is replaced, not written through.
+    from neuronav.plotting import new_figure, save
 
     shown = [m for m in metrics if all(isinstance(r.get(m), (int, float)) for r in rows)][:8] + ["real_time_factor"]
-    fig, axes = plt.subplots(1, len(shown), figsize=(2.4 * len(shown), 3), squeeze=False)
+    fig, axes = new_figure((2.4 * len(shown), 3), 1, len(shown), squeeze=False)
     for ax, metric in zip(axes[0], shown):
         ax.bar([r["backend"] for r in rows], [r[metric] for r in rows], color="tab:gray")
         ax.set_title(metric, fontsize=8)
         ax.tick_params(labelsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 def _sweep(args: argparse.Namespace, argv: list[str]) -> int:
@@ -291,14 +298,39 @@ def console_main() -> int:
     ``gc.freeze()`` moves every live object out of the collector's reach, so the interpreter's last
     collections at exit do not walk the ~1300 modules' objects (0.2 s). Only for the command: a
     process that goes on after :func:`main` keeps the interpreter's own settings.
+
+    Ctrl-C interrupts the command once (:func:`_interrupt_once`): exit 130 and one line on stderr,
+    however many follow.
     """
     import gc
 
     gc.set_threshold(50_000, 20, 20)
+    _interrupt_once()
     try:
         return main(figure_helper=True)
+    except KeyboardInterrupt:  # outside the command itself: while parsing, or starting the figure helper
+        sys.stderr.write(INTERRUPTED)
+        return 130
     finally:
         gc.freeze()
+
+
+def _interrupt_once() -> None:
+    """Make the first SIGINT raise KeyboardInterrupt in this process and ignore every later one.
+
+    Shutting down (killing the pool's workers, releasing the run folder) is then never cut short: a
+    second Ctrl-C used to leave the command hanging on its workers, a third to print tracebacks.
+    Processes forked from this one (pool workers, the figure helper) inherit the handler and ignore
+    SIGINT, which a terminal sends to them too: this process ends them.
+    """
+    owner = os.getpid()
+
+    def interrupted(signum: int, frame: Any) -> None:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        if os.getpid() == owner:
+            raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, interrupted)
 
 
 if __name__ == "__main__":

@@ -8,11 +8,14 @@ that ended the task.
 Local pool workers are forked on Linux (started in milliseconds, everything imported). They are
 tied to their run: they die with the process that started them (``PR_SET_PDEATHSIG`` on Linux, a
 thread that watches the parent elsewhere), and they close the run directory's lock descriptor they
-inherit, so a killed run leaves no process behind and no lock held.
+inherit, so a killed run leaves no process behind and no lock held. They ignore Ctrl-C (a terminal
+sends it to every process of the group): the run decides, and a run that stops early (interrupted)
+kills its workers at once instead of waiting for their chunks.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import re
@@ -22,7 +25,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterable, Iterator, Mapping
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
@@ -208,6 +211,24 @@ def _watch_parent(parent_pid: int, interval_s: float) -> None:
             os._exit(1)
 
 
+@contextlib.contextmanager
+def sigint_held() -> Iterator[None]:
+    """Hold SIGINT back from this (main) thread while it forks, and deliver it after.
+
+    Python runs a signal's handler at its next chance, which during a fork is inside the at-fork
+    callbacks, where the KeyboardInterrupt raised is printed and dropped (the run went on). Threads
+    started meanwhile (a pool's own) keep SIGINT blocked, so it always comes to this thread.
+    """
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def worker_initializer(parent_pid: int, close_fds: tuple[int, ...] = (), watch_interval_s: float = 1.0) -> None:
     """Run first in every local pool worker: tie it to its parent, drop the run directory's lock.
 
@@ -216,7 +237,12 @@ def worker_initializer(parent_pid: int, close_fds: tuple[int, ...] = (), watch_i
     - The worker dies with ``parent_pid``: ``PR_SET_PDEATHSIG`` on Linux, and a daemon thread that
       checks the parent every ``watch_interval_s`` (the fallback elsewhere, and for the moment
       between fork and prctl).
+    - The worker ignores SIGINT: a Ctrl-C reaches every process of the terminal's group, and a
+      worker interrupted mid-task printed a traceback; its run kills it instead (:class:`LocalPool`).
     """
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "pthread_sigmask"):  # forked while the parent held SIGINT back (sigint_held)
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     for fd in close_fds:
         try:
             os.close(fd)
@@ -232,6 +258,9 @@ def worker_initializer(parent_pid: int, close_fds: tuple[int, ...] = (), watch_i
 class LocalPool:
     """A local process pool; a pool broken by a dying worker is replaced for the next batch of tasks.
 
+    A pool whose tasks were not all consumed (the run was interrupted) is not waited for: its queued
+    tasks are cancelled and its workers killed, by the generator that ran it or by :meth:`close`.
+
     Parameters
     ----------
     workers : int
@@ -243,25 +272,46 @@ class LocalPool:
     def __init__(self, workers: int, close_fds: tuple[int, ...] = ()) -> None:
         self.workers = workers
         self.close_fds = tuple(close_fds)
+        self._running: dict[ProcessPoolExecutor, list[Future | None]] = {}  # pools not shut down yet: their futures
 
     def _pool(self, workers: int) -> ProcessPoolExecutor:
         context = pool_context()
         # Only a forked worker holds copies of this process's descriptors; a spawned one has its own.
         inherited = self.close_fds if context.get_start_method() == "fork" else ()
-        return ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=worker_initializer,
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=context, initializer=worker_initializer,
                                    initargs=(os.getpid(), inherited))
+        self._running[pool] = []
+        return pool
+
+    def _submit(self, pool: ProcessPoolExecutor, task: ChunkTask) -> Future:
+        futures = self._running[pool]
+        futures.append(None)  # counted first: a task whose submit was interrupted is not done either
+        with sigint_held():  # the first submit forks the workers
+            futures[-1] = pool.submit(run_chunk, task)
+        return futures[-1]
+
+    def _end(self, pool: ProcessPoolExecutor) -> None:
+        """Shut ``pool`` down; kill its workers first when some of its tasks are not done."""
+        futures = self._running.pop(pool, None)
+        if futures is None:  # already ended
+            return
+        if not all(future is not None and future.done() for future in futures):
+            # ProcessPoolExecutor cannot end running tasks before Python 3.14 (kill_workers): kill them here.
+            for process in list((getattr(pool, "_processes", None) or {}).values()):
+                process.kill()
+        pool.shutdown(wait=True, cancel_futures=True)
 
     def run(self, tasks: list[ChunkTask]) -> Outcomes:
         if not tasks:
             return
         pool = self._pool(min(self.workers, len(tasks)))
         try:
-            futures = {pool.submit(run_chunk, task): task for task in tasks}
+            futures = {self._submit(pool, task): task for task in tasks}
             for future in as_completed(futures):
                 error = future.exception()
                 yield futures[future], (error if error is not None else future.result())
         finally:
-            pool.shutdown(wait=True, cancel_futures=True)
+            self._end(pool)
 
     def isolate(self, tasks: list[ChunkTask]) -> Outcomes:
         """One worker, tasks in order: a worker that dies is blamed on the task it was running."""
@@ -269,7 +319,7 @@ class LocalPool:
         while remaining:
             pool = self._pool(1)
             try:
-                futures = [pool.submit(run_chunk, task) for task in remaining]
+                futures = [self._submit(pool, task) for task in remaining]
                 for i, (task, future) in enumerate(zip(remaining, futures)):
                     error = future.exception()
                     yield task, (error if error is not None else future.result())
@@ -279,10 +329,13 @@ class LocalPool:
                 else:
                     remaining = []
             finally:
-                pool.shutdown(wait=True, cancel_futures=True)
+                self._end(pool)
 
     def close(self) -> None:
-        pass
+        """End the pools still running: an interrupt raised while an outcome was being recorded leaves
+        the generator of :meth:`run` suspended, its pool busy, until the generator is collected."""
+        for pool in list(self._running):
+            self._end(pool)
 
 
 # -- Dask -----------------------------------------------------------------------------------------------

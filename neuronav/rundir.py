@@ -7,9 +7,11 @@ A run or sweep also keeps (see :mod:`neuronav.sweep`):
 
 - ``.neuronav-run`` — the marker: this folder was made by a neuronav run (its kind and when). A run
   writes only into a folder that does not exist yet, an empty folder, or a folder with this marker
-  (:func:`check_out_dir`); anything else is refused before a file is touched. While a process works
-  in the folder it holds an exclusive ``flock`` on the marker (:class:`DirectoryLock`), released by
-  the kernel however the process ends; no separate lock file is left behind.
+  (:func:`check_out_dir`); anything else is refused before a file is touched, and so is a marker
+  neuronav did not write (a link, not a regular file, over :data:`MARKER_MAX_BYTES`, another
+  record). While a process works in the folder it holds an exclusive ``flock`` on the marker
+  (:class:`DirectoryLock`), released by the kernel however the process ends; no separate lock file
+  is left behind.
 - ``settings.json`` — what the directory holds (scenario, backend, seed, trials, config, grid),
   written before the first trial runs; a rerun with other settings is refused while the folder
   holds finished trials, and may reuse it when it holds none (a start that failed).
@@ -20,12 +22,14 @@ A run or sweep also keeps (see :mod:`neuronav.sweep`):
 from __future__ import annotations
 
 import csv
+import errno
 import io
 import json
 import math
 import os
 import platform
 import re
+import stat
 import subprocess
 import sys
 import tempfile
@@ -211,6 +215,8 @@ def write_run_directory(
 SETTINGS_FILE = "settings.json"
 PARTS_DIR = "parts"
 MARKER_FILE = ".neuronav-run"
+# A marker holds about 90 bytes of JSON; a larger file is not one, and is not read further.
+MARKER_MAX_BYTES = 4096
 # Folders made before the marker existed hold this (empty) lock file and a settings.json of kind run
 # or sweep; they are adopted (marker added, lock file removed) so that they can still be resumed.
 LEGACY_LOCK_FILE = ".neuronav.lock"
@@ -396,10 +402,11 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
     """The run folder ``out_dir`` as a Path, checked to be one a ``kind`` run may write into; writes nothing.
 
     Allowed: a path that does not exist yet (its parents are made later), an empty directory, or a
-    directory holding neuronav's marker (:data:`MARKER_FILE`) of the same kind of command (run and
-    sweep folders are one kind; compare folders another), or a run or sweep folder made before the
-    marker existed (its ``.neuronav.lock`` and ``settings.json``). Anything else raises
-    :class:`ConfigError`: an empty path, a file, a folder with other files (the user's own, or ``/``).
+    directory holding neuronav's marker (:data:`MARKER_FILE`, checked by :func:`read_marker`) of the
+    same kind of command (run and sweep folders are one kind; compare folders another), or a run or
+    sweep folder made before the marker existed (its ``.neuronav.lock`` and ``settings.json``).
+    Anything else raises :class:`ConfigError`: an empty path, a file, a folder with other files (the
+    user's own, or ``/``), a marker neuronav did not write (a link to ``/etc/passwd``, say).
     """
     if out_dir is None or (isinstance(out_dir, str) and not out_dir.strip()):
         raise ConfigError(f"{flag} {out_dir!r} is empty; give a folder for the results")
@@ -417,9 +424,13 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
     if not path.is_dir():
         raise ConfigError(f"{flag} {_out_label(path)} is a file; give a directory")
     marker = path / MARKER_FILE
-    if marker.is_file():
-        made_by = _marker_kind(marker)
-        if made_by is not None and _MARKER_GROUPS.get(made_by) != _MARKER_GROUPS.get(kind):
+    if os.path.lexists(marker):
+        try:
+            made_by = read_marker(marker)["kind"]
+        except ForeignMarker as error:
+            raise ConfigError(f"{flag} {_out_label(path)} holds a {MARKER_FILE} that is not neuronav's marker "
+                              f"({error}); give a new or empty folder") from None
+        if _MARKER_GROUPS.get(made_by) != _MARKER_GROUPS.get(kind):
             raise ConfigError(f"{flag} {_out_label(path)} holds the results of a neuronav {made_by}, not of a "
                               f"{kind}; give another folder")
         return path
@@ -438,7 +449,10 @@ def check_out_dir(out_dir: Any, kind: str = "run", flag: str = "--out") -> Path:
 
 def _legacy_run_folder(path: Path) -> str | None:
     """The kind ("run"/"sweep") of a run folder made before the marker existed, else None."""
-    if not (path / LEGACY_LOCK_FILE).is_file():
+    try:
+        if not stat.S_ISREG(os.lstat(path / LEGACY_LOCK_FILE).st_mode):  # a link is not neuronav's
+            return None
+    except OSError:
         return None
     try:
         settings = json.loads((path / SETTINGS_FILE).read_text())
@@ -449,11 +463,77 @@ def _legacy_run_folder(path: Path) -> str | None:
     return settings.get("kind") if settings.get("kind") in ("run", "sweep") else None
 
 
-def _marker_kind(marker: Path) -> str | None:
+class ForeignMarker(Exception):
+    """A ``.neuronav-run`` that neuronav did not write; the message says why (\"it is a link\")."""
+
+
+def _open_marker(marker: Path) -> int:
+    """A read descriptor of the marker itself: never a link's target, and never blocking on a FIFO.
+
+    Raises :class:`ForeignMarker` when it is a link or not a regular file, and OSError when it
+    cannot be opened.
+    """
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
-        return str(json.loads(marker.read_text()).get("kind")) or None
-    except (OSError, ValueError, AttributeError):
-        return None
+        if stat.S_ISLNK(os.lstat(marker).st_mode):  # also where O_NOFOLLOW does not exist
+            raise ForeignMarker("it is a link")
+        fd = os.open(marker, flags)
+    except OSError as error:
+        if error.errno == errno.ELOOP:  # replaced by a link since the lstat
+            raise ForeignMarker("it is a link") from None
+        raise
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise ForeignMarker("it is not a regular file")
+    return fd
+
+
+def read_marker(marker: Path) -> dict:
+    """The record in neuronav's marker ``marker``: ``made_by``, ``kind``, ``created``.
+
+    At most :data:`MARKER_MAX_BYTES` are read. Raises :class:`ForeignMarker` when the file is a
+    link, not a regular file, longer than that, unreadable, or not a record neuronav wrote.
+    """
+    try:
+        fd = _open_marker(marker)
+        with os.fdopen(fd, "rb") as stream:
+            data = stream.read(MARKER_MAX_BYTES + 1)
+    except OSError as error:
+        raise ForeignMarker(f"it cannot be read: {error.strerror or error}") from None
+    if len(data) > MARKER_MAX_BYTES:
+        raise ForeignMarker(f"it holds more than the {MARKER_MAX_BYTES} bytes of a marker")
+    try:
+        record = json.loads(data)
+    except ValueError:
+        record = None
+    if (not isinstance(record, dict) or record.get("made_by") != "neuronav"
+            or not isinstance(record.get("kind"), str) or record["kind"] not in _MARKER_GROUPS):
+        raise ForeignMarker("it does not hold neuronav's record")
+    return record
+
+
+def _create_marker(folder: Path, kind: str) -> None:
+    """Put neuronav's marker into ``folder`` whole, unless one is there: written to a temporary file,
+    then hard-linked into place (which, unlike a rename, never replaces an existing file)."""
+    marker = folder / MARKER_FILE
+    if os.path.lexists(marker):
+        return  # an earlier run's (checked by check_out_dir, and again by the lock)
+    text = json.dumps({"made_by": "neuronav", "kind": kind, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")}) + "\n"
+    handle, temporary = tempfile.mkstemp(dir=folder, prefix=f"{MARKER_FILE}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w") as stream:
+            stream.write(text)
+        _readable(temporary)
+        try:
+            os.link(temporary, marker)
+        except FileExistsError:
+            pass  # made meanwhile by another neuronav process
+        except OSError:  # a file system without hard links: create it in place
+            fd = os.open(marker, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o666)
+            with os.fdopen(fd, "w") as stream:
+                stream.write(text)
+    finally:
+        os.unlink(temporary)
 
 
 def claim_out_dir(out_dir: Path, kind: str = "run", flag: str = "--out") -> Path:
@@ -465,13 +545,7 @@ def claim_out_dir(out_dir: Path, kind: str = "run", flag: str = "--out") -> Path
     path = check_out_dir(out_dir, kind, flag)
     try:
         path.mkdir(parents=True, exist_ok=True)
-        text = json.dumps({"made_by": "neuronav", "kind": kind, "created": time.strftime("%Y-%m-%dT%H:%M:%S%z")})
-        try:
-            with open(path / MARKER_FILE, "x") as stream:
-                stream.write(text + "\n")
-            _readable(str(path / MARKER_FILE))
-        except FileExistsError:
-            pass
+        _create_marker(path, kind)
         if (path / LEGACY_LOCK_FILE).is_file():
             (path / LEGACY_LOCK_FILE).unlink()  # the marker is the lock now
     except (OSError, ValueError) as error:
@@ -502,7 +576,11 @@ class DirectoryLock:
             import fcntl
         except ImportError:  # not POSIX: no lock
             return self
-        self._handle = open(self.path)
+        try:
+            self._handle = os.fdopen(_open_marker(self.path), "rb")
+        except (OSError, ForeignMarker) as error:
+            raise ConfigError(f"run directory {str(self.path.parent)!r}: its {MARKER_FILE} cannot be locked "
+                              f"({getattr(error, 'strerror', None) or error}); give another --out") from None
         try:
             fcntl.flock(self._handle.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:

@@ -160,3 +160,83 @@ def test_a_path_with_a_null_byte_is_one_error_not_a_traceback(tmp_path):
     from neuronav.cli import main
 
     assert main(["run", "path-integration", "--out", str(tmp_path / "a\x00b"), "--no-figures"]) == 2
+
+
+def _fake_marker(folder: Path, how: str, tmp_path: Path) -> Path | None:
+    """Put a ``.neuronav-run`` that neuronav did not write into ``folder``; return what it points at."""
+    marker = folder / MARKER_FILE
+    real = json.dumps({"made_by": "neuronav", "kind": "run", "created": "2026-01-01T00:00:00+0000"}) + "\n"
+    if how in ("link to a file", "link to a real marker"):
+        target = tmp_path / "target.txt"
+        target.write_text("root:x:0:0\n" if how == "link to a file" else real)
+        marker.symlink_to(target)
+        return target
+    if how == "directory":
+        marker.mkdir()
+    elif how == "fifo":
+        os.mkfifo(marker)
+    elif how == "not neuronav's":
+        marker.write_text("my notes\n")
+    elif how == "too large":  # valid JSON, padded far beyond what a real marker holds
+        marker.write_text(real + " " * 1_000_000)
+    return None
+
+
+@pytest.mark.parametrize("how", ["link to a file", "link to a real marker", "directory", "fifo", "not neuronav's",
+                                 "too large"])
+def test_a_marker_neuronav_did_not_write_is_refused(users_folder, tmp_path, how):
+    """A marker must be a small regular file that neuronav wrote: a link (to ``/etc/passwd``, say) would put
+    the results among the user's files and the lock on the link's target."""
+    target = _fake_marker(users_folder, how, tmp_path)
+    target_before = target.read_bytes() if target is not None else None
+    before = snapshot(users_folder) if how != "fifo" else None
+    result = neuronav("run", "path-integration", *SHORT, "--no-figures", "--out", str(users_folder))
+    assert_refused(result, f"--out {str(users_folder)!r}", MARKER_FILE)
+    assert {p.name for p in users_folder.iterdir()} == {"summary.json", "trials.csv", MARKER_FILE}
+    if before is not None:
+        assert snapshot(users_folder) == before
+    if target is not None:
+        assert target.read_bytes() == target_before
+
+
+def test_the_marker_is_read_in_bounded_memory(tmp_path):
+    """A 256 MiB marker (sparse: no disk used) is refused without being read whole (the 3 GB one took 6.3 GB)."""
+    out = tmp_path / "run"
+    out.mkdir()
+    with open(out / MARKER_FILE, "wb") as stream:
+        stream.truncate(256 * 2**20)
+    probe = ("import resource, sys\n"
+             "from neuronav.errors import ConfigError\n"
+             "from neuronav.rundir import check_out_dir\n"
+             "before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
+             "try:\n"
+             "    check_out_dir(sys.argv[1])\n"
+             "    print('accepted')\n"
+             "except ConfigError as error:\n"
+             "    print(error)\n"
+             "print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before)\n")
+    result = subprocess.run([sys.executable, "-c", probe, str(out)], capture_output=True, text=True, timeout=120)
+    message, grown_kib = result.stdout.strip().splitlines()
+    assert MARKER_FILE in message and str(out) in message, message
+    assert int(grown_kib) < 50_000  # far below the file's 262 144 KiB
+
+
+def test_a_marker_swapped_for_a_link_is_not_locked(tmp_path):
+    """The lock opens the marker itself, never what a link put in its place points at."""
+    out = claim_out_dir(tmp_path / "run")
+    target = tmp_path / "target.txt"
+    target.write_text("not neuronav's\n")
+    (out / MARKER_FILE).unlink()
+    (out / MARKER_FILE).symlink_to(target)
+    with pytest.raises(ConfigError, match=MARKER_FILE):
+        with DirectoryLock(out):
+            pass
+
+
+def test_a_new_marker_is_neuronavs_and_complete(tmp_path):
+    out = claim_out_dir(tmp_path / "run", "sweep")
+    marker = out / MARKER_FILE
+    assert marker.is_file() and not marker.is_symlink()
+    assert json.loads(marker.read_text())["made_by"] == "neuronav"
+    assert [p.name for p in out.iterdir()] == [MARKER_FILE]  # no temporary left behind
+    assert claim_out_dir(out, "run") == out  # run and sweep folders are one kind
