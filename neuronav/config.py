@@ -22,6 +22,9 @@ from neuronav.errors import ConfigError
 
 _TRUE = {"true", "1", "yes", "on"}
 _FALSE = {"false", "0", "no", "off"}
+# No setting takes a table or an array, so a file nested deeper than this is surely not settings; the
+# limit also keeps tomllib's recursive parser (RecursionError at about 500 levels) out of reach.
+MAX_TOML_NESTING = 4
 
 
 def field(default: Any, help: str = "", **limits: Any) -> Any:
@@ -140,8 +143,18 @@ def parse_overrides(config_type: type, assignments: Iterable[str] | Mapping[str,
     for key, raw in items:
         if key not in fields:
             raise ConfigError(f"unknown key {key!r}; allowed: {', '.join(sorted(fields))}")
-        values[key] = parse_value(config_type, key, raw) if isinstance(raw, str) else raw
+        values[key] = (parse_value(config_type, key, raw) if isinstance(raw, str)
+                       else _number_as_text(field_kind(fields[key]), raw))
     return values
+
+
+def _number_as_text(kind: type, value: Any) -> Any:
+    """A finite number given to a text setting (``conflict_deg = 60`` in TOML or Python) as its text;
+    any other value unchanged (for :func:`validate` to judge)."""
+    if (kind is str and isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value)):
+        return str(value)
+    return value
 
 
 def build_config(config_type: type, *layers: Mapping[str, Any] | Iterable[str]) -> Any:
@@ -178,11 +191,13 @@ def load_config_file(config_type: type, path: str | Path,
     """The settings in a TOML file, checked against ``config_type``: ``{key: typed value}``.
 
     The file holds ``key = value`` pairs with the keys of ``--set`` (``neuronav list`` shows them),
-    e.g. ``noise = 0.2`` or ``dtype = "float64"``. Unknown keys, values of the wrong type and values
-    out of range raise :class:`ConfigError` naming the key and what is allowed. ``overridden`` holds the
-    values that win over the file (``--set``, a grid point), or just their keys: the file's values of
-    those keys are not checked (they are not used), and rules between fields are checked with the
-    winning values in place.
+    e.g. ``noise = 0.2`` or ``dtype = "float64"``; a number for a text setting stands for its text
+    (``conflict_deg = 60``). Unknown keys, values of the wrong type and values out of range raise
+    :class:`ConfigError` naming the key and what is allowed, as does a file nested more than
+    :data:`MAX_TOML_NESTING` tables or arrays deep. ``overridden`` holds the values that win over the
+    file (``--set``, a grid point), or just their keys: the file's values of those keys are not checked,
+    neither type nor range (they are not used), and rules between fields are checked with the winning
+    values in place.
     """
     path = Path(path)
     try:
@@ -191,21 +206,28 @@ def load_config_file(config_type: type, path: str | Path,
         raise ConfigError(f"config file {str(path)!r} does not exist") from None
     except (OSError, UnicodeDecodeError, ValueError) as error:
         raise ConfigError(f"config file {str(path)!r} cannot be read: {_reason(error)}") from None
+    too_deep = (f"config file {str(path)!r} nests tables or arrays more than {MAX_TOML_NESTING} deep; "
+                "settings are plain key = value pairs")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
         raise ConfigError(f"config file {str(path)!r} is not valid TOML: {_reason(error)}") from None
+    except RecursionError:
+        raise ConfigError(too_deep) from None
+    if _nesting(data) > MAX_TOML_NESTING:
+        raise ConfigError(too_deep)
     fields = _fields(config_type)
     allowed = ", ".join(sorted(fields))
+    winning = dict(overridden) if isinstance(overridden, Mapping) else {}
+    skipped = set(overridden)
     for key, value in data.items():
         if key not in fields:
             raise ConfigError(f"config file {str(path)!r}: unknown key {key!r}; allowed: {allowed}")
         kind = field_kind(fields[key])
+        data[key] = value = _number_as_text(kind, value)
         # TOML values are typed: a number written as a string is a wrong type, as is a table or array.
-        if isinstance(value, (dict, list)) or (isinstance(value, str) and kind is not str):
+        if key not in skipped and (isinstance(value, (dict, list)) or (isinstance(value, str) and kind is not str)):
             raise ConfigError(f"config file {str(path)!r}: key {key!r} expects {_type_name(kind)}, got {value!r}")
-    winning = dict(overridden) if isinstance(overridden, Mapping) else {}
-    skipped = set(overridden)
     try:  # types, ranges and rules between fields, of the config the file's values end up in
         build_config(config_type, {k: v for k, v in data.items() if k not in skipped}, winning)
     except ConfigError as error:
@@ -217,9 +239,26 @@ def load_config_file(config_type: type, path: str | Path,
     return dict(data)
 
 
+def _nesting(data: Mapping[str, Any]) -> int:
+    """How many tables or arrays deep ``data``'s values go (0: plain values), counted without recursion
+    and only up to one past :data:`MAX_TOML_NESTING`."""
+    deepest, pending = 0, [(value, 1) for value in data.values()]
+    while pending and deepest <= MAX_TOML_NESTING:
+        value, depth = pending.pop()
+        if isinstance(value, (dict, list)):
+            deepest = max(deepest, depth)
+            pending.extend((inner, depth + 1) for inner in (value.values() if isinstance(value, dict) else value))
+    return deepest
+
+
 def _reason(error: BaseException) -> str:
     text = str(error).splitlines()
     return text[0] if text else type(error).__name__
+
+
+def _limit_text(value: Any) -> str:
+    """A limit as written: an integer in full (``2147483647``), a number shortest (``0.64``, ``1e+06``)."""
+    return str(value) if isinstance(value, int) else f"{value:g}"
 
 
 def limits_text(f: dataclasses.Field) -> str:
@@ -227,15 +266,17 @@ def limits_text(f: dataclasses.Field) -> str:
     meta = f.metadata
     if "choices" in meta:
         return "one of: " + ", ".join(map(str, meta["choices"]))
-    low = (f"{meta['min']:g} <= " if "min" in meta else f"{meta['min_exclusive']:g} < " if "min_exclusive" in meta
-           else "")
-    high = (f" <= {meta['max']:g}" if "max" in meta else f" < {meta['max_exclusive']:g}" if "max_exclusive" in meta
-            else "")
+    low = (f"{_limit_text(meta['min'])} <= " if "min" in meta
+           else f"{_limit_text(meta['min_exclusive'])} < " if "min_exclusive" in meta else "")
+    high = (f" <= {_limit_text(meta['max'])}" if "max" in meta
+            else f" < {_limit_text(meta['max_exclusive'])}" if "max_exclusive" in meta else "")
     if not low and not high:
         return ""
     if low and high:
         return f"{low}x{high}"
-    return f">= {meta['min']:g}" if "min" in meta else f"> {meta['min_exclusive']:g}" if low else high.strip()
+    if "min" in meta:
+        return f">= {_limit_text(meta['min'])}"
+    return f"> {_limit_text(meta['min_exclusive'])}" if low else high.strip()
 
 
 def describe(config_type: type) -> list[tuple[str, Any, str]]:

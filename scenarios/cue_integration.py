@@ -93,7 +93,8 @@ class CueIntegrationConfig:
                                       "the release point (m)", min_exclusive=0.0, max=8.0)
     nest_radius_m: float = field(0.7, "success: the body comes this close to the nest (m)", min_exclusive=0.0,
                                  max=8.0)
-    timeout_s: float = field(30.0, "a trial gives up after this long (s)", min_exclusive=0.0, max=3600.0)
+    timeout_s: float = field(30.0, "a trial gives up after this long (s): at least one gait cycle, one look",
+                             min=CYCLE_S, max=3600.0)
     timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
                               min=1e-4, max=0.008)
     kinematic_supersample: int = field(1, "kinematic batch: rays per pixel side of the panorama (the ant's "

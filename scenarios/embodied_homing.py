@@ -93,9 +93,9 @@ MAX_PHYSICS_STEPS = 4_000_000
 
 
 def check_embodied(config, backend_name: str) -> None:
-    """The embodied protocol's cross-field rules on a physics backend (the kinematic one steps per control step).
-
-    ``embodied_timestep_s`` at least ``MIN_TIMESTEP_S`` and a whole fraction of the 8 ms control step (at
+    """The embodied protocol's cross-field rules: a trial lasts at least one gait cycle (the brain's period);
+    on a physics backend (the kinematic one steps per control step) ``embodied_timestep_s`` at least
+    ``MIN_TIMESTEP_S`` and a whole fraction of the 8 ms control step (at
     most ``MAX_PHYSICS_PER_CONTROL`` physics steps per control step); a trial of at most
     ``outbound_s + homing_timeout_s`` needs at most ``MAX_PHYSICS_STEPS`` physics steps (at the default
     2 ms: 8000 s, more than the settings' own maxima).
@@ -105,6 +105,10 @@ def check_embodied(config, backend_name: str) -> None:
     ConfigError
         Naming the setting and the bound.
     """
+    trip_s = config.outbound_s + config.homing_timeout_s
+    if trip_s < CYCLE_S:  # (below one control step no trial ran at all)
+        raise ConfigError(f"outbound_s + homing_timeout_s = {trip_s:g} s is shorter than one gait cycle "
+                          f"({CYCLE_S} s), the brain's period")
     if backend_name == "kinematic":
         return
     timestep_s = config.embodied_timestep_s

@@ -121,7 +121,8 @@ class OdourTrailConfig:
                                     "within width / 2 + reach_m of it (m)", min_exclusive=0.0, max=3.0)
     reach_m: float = field(0.5, "completion counts progress while the body centre is within width / 2 + this "
                            "of the trail (m)", min=0.0, max=3.0)
-    timeout_s: float = field(90.0, "a trial gives up after this long (s)", min_exclusive=0.0, max=3600.0)
+    timeout_s: float = field(90.0, "a trial gives up after this long (s): at least one gait cycle, one sniff",
+                             min=CYCLE_S, max=3600.0)
     timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
                               min=1e-4, max=0.008)
 

@@ -97,12 +97,19 @@ class PathIntegration(Scenario):
     # Undefined (NaN) in some trials by definition: an agent that never comes within the success
     # radius has no homing_steps (homing_time_s for the embodied ant), one that never gets closer
     # than where it turned back has mu = 1, so no per-trial tortuosity 1 / (1 - mu), and a body that
-    # did not move on its way home has no straightness.
-    optional_metrics = ("homing_steps", "tortuosity", "homing_time_s", "straightness")
+    # did not move on its way home has no straightness, and one that never left the nest (max_acceleration
+    # 0) no tortuosity_mu (it divides by the distance from home at the turn back).
+    optional_metrics = ("homing_steps", "tortuosity", "tortuosity_mu", "homing_time_s", "straightness")
     records_video = True  # on backends that render: the embodied protocol films its first trial
 
     def smoke_config(self) -> dict:
         return {"outbound_steps": 120, "inbound_steps": 120, "record_trials": 2}
+
+    def leading_series(self, config: PathIntegrationConfig, backend: str) -> dict[str, int]:
+        """stone2017: the neural activity of the first ``record_trials`` trials only."""
+        if self.protocol(config, backend) != "stone2017":
+            return {}
+        return dict.fromkeys(("cpu4_memory", "tb1_rates", "heading_rad"), config.record_trials)
 
     @staticmethod
     def protocol(config: PathIntegrationConfig, backend: str) -> str:
@@ -116,9 +123,10 @@ class PathIntegration(Scenario):
 
         Per trial, in float64: the positions of every step (2 per step), the outbound route's turns,
         accelerations and their step-major copies (5 per outbound step), the distance arrays of the
-        metrics (3 per step), the recorded positions, and the compiled circuit's state. Measured at
-        the defaults (peak RSS of ``neuronav run path-integration --trials N`` for N = 2000 and
-        20000): about 155 KB per trial; this estimate gives 198 KB. The embodied protocol runs its
+        metrics (3 per step), the recorded positions, and the compiled circuit's state; and the neural
+        activity of the first ``record_trials`` trials (CPU4, TB1 and heading: 25 float32 per sample).
+        Measured at the defaults (peak RSS of ``neuronav run path-integration --trials N`` for N = 2000
+        and 20000): about 155 KB per trial; this estimate gives 198 KB. The embodied protocol runs its
         trials one after another, each in its own small batch: no estimate.
         """
         if config.protocol == "i2bot":
@@ -126,8 +134,9 @@ class PathIntegration(Scenario):
         steps = config.outbound_steps + config.inbound_steps
         samples = steps // config.record_every
         per_trial = 8 * (2 * (steps + 1) + 5 * config.outbound_steps + 3 * steps) + 12 * 2 * (samples + 1)
+        activity = min(trials, config.record_trials) * samples * 25 * 4
         circuit = stone2017(noise=config.noise).compile(batch=1, dtype=np.dtype(config.dtype))
-        return int(trials * (per_trial + circuit.bytes_per_agent()))
+        return int(trials * (per_trial + circuit.bytes_per_agent()) + activity)
 
     def check(self, config: PathIntegrationConfig, backend: str) -> None:
         """Refuse, before any trial, settings that cannot run on ``backend``.

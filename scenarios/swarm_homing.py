@@ -43,6 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from brains.cx import decode_home_vector, stone2017
+from neuronav import sweep
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.loop import integer_ratio
@@ -54,6 +55,15 @@ CONTROL_S = 0.008
 MIN_STRIDE_RAD = np.radians(5.0)
 EXTRA_STRIDE_RAD = np.radians(20.0)
 MAX_PHYSICS_ANTS = 31  # backends.mujoco.swarm.MAX_ANTS: one contact bit per ant
+# Memory of one swarm (kinematic, --trials 1, peak RSS of the whole command): 5000 ants for 313 gait
+# cycles took 54.6 MB more than for 11 (36 B per ant and cycle: the float64 trajectories, their float32
+# record and its copy on the way to the file), 20000 ants 99 MB more than 5000 (6.6 KB per ant: the
+# ants' random generators, CX state, bodies). Rounded up:
+SWARM_BYTES_PER_ANT_CYCLE = 40
+SWARM_BYTES_PER_ANT = 8192
+# Per trial (row): its own trajectory, float64 and float32 (24 B per cycle, rounded up), and its row.
+TRIAL_BYTES_PER_CYCLE = 32
+TRIAL_BYTES = 2048
 GOLDEN_ANGLE_RAD = np.pi * (3.0 - np.sqrt(5.0))
 
 
@@ -236,6 +246,22 @@ def ant_metrics(log: dict, ant: int, swarm: int, config: SwarmHomingConfig) -> d
     }
 
 
+def check_bodies(config: SwarmHomingConfig, backend: str) -> None:
+    """MuJoCo: at most 31 ants (one contact bit each); physics: a whole fraction of the 8 ms control step.
+
+    Raises
+    ------
+    ConfigError
+        Naming the setting and what is allowed.
+    """
+    if backend == "kinematic":
+        return
+    if backend == "mujoco" and config.ants > MAX_PHYSICS_ANTS:
+        raise ConfigError(f"swarm-homing on {backend}: ants must be at most {MAX_PHYSICS_ANTS} (one contact "
+                          f"bit each), got {config.ants}; e.g. --set ants=16")
+    integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
+
+
 class SwarmHoming(Scenario):
     """Many ants, each with its own CX, in one world: foraging walks from scattered homes, then homing."""
 
@@ -251,24 +277,42 @@ class SwarmHoming(Scenario):
     def smoke_config(self) -> dict:
         return {"ants": 4, "outbound_s": 3.2, "homing_timeout_s": 3.2}
 
+    def leading_series(self, config: SwarmHomingConfig, backend: str) -> dict[str, int]:
+        """The first trial's whole swarm, stored once."""
+        return dict.fromkeys(("swarm_position_m", "swarm_home_m", "swarm_home_at_s"), 1)
+
+    @staticmethod
+    def swarm_bytes(config: SwarmHomingConfig) -> int:
+        """Memory one swarm of ``config.ants`` ants needs for the whole of one run (see ``SWARM_BYTES_PER_*``)."""
+        cycles = int(np.ceil((config.outbound_s + config.homing_timeout_s) / CYCLE_S - 1e-9)) + 1
+        return config.ants * (SWARM_BYTES_PER_ANT_CYCLE * cycles + SWARM_BYTES_PER_ANT)
+
+    def estimate_bytes(self, config: SwarmHomingConfig, trials: int) -> int | None:
+        """Memory one batch of ``trials`` trials needs: every swarm it touches (trials of one swarm may
+        straddle two, from any seed) and each trial's own trajectory."""
+        cycles = int(np.ceil((config.outbound_s + config.homing_timeout_s) / CYCLE_S - 1e-9)) + 1
+        swarms = min(trials, -(-trials // config.ants) + 1)
+        return swarms * self.swarm_bytes(config) + trials * (TRIAL_BYTES_PER_CYCLE * cycles + TRIAL_BYTES)
+
     def check(self, config: SwarmHomingConfig, backend: str) -> None:
-        """MuJoCo: at most 31 ants (one contact bit each); physics: a whole fraction of the 8 ms control step.
+        """One swarm must fit in the memory available (:meth:`swarm_bytes`), and :func:`check_bodies`.
 
         Raises
         ------
         ConfigError
-            Naming the setting and what is allowed.
+            Naming the settings and what is allowed.
         """
-        if backend == "kinematic":
-            return
-        if backend == "mujoco" and config.ants > MAX_PHYSICS_ANTS:
-            raise ConfigError(f"swarm-homing on {backend}: ants must be at most {MAX_PHYSICS_ANTS} (one contact "
-                              f"bit each), got {config.ants}; e.g. --set ants=16")
-        integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
+        needed, available = self.swarm_bytes(config), sweep.available_memory_bytes()
+        if available is not None and needed > available:
+            raise ConfigError(f"swarm-homing: ants={config.ants} for outbound_s + homing_timeout_s = "
+                              f"{config.outbound_s + config.homing_timeout_s:g} s need about {needed / 2**30:.1f} GiB "
+                              f"for one swarm, more than the {available / 2**30:.1f} GiB available; fewer ants or "
+                              "shorter times")
+        check_bodies(config, backend)
 
     def run(self, config: SwarmHomingConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
-        self.check(config, backend)
+        check_bodies(config, backend)  # (the memory was checked when the run was planned, not per chunk)
         n = config.ants
         logs: dict[int, dict] = {}
         rows, paths, homes = [], [], []

@@ -54,7 +54,8 @@ class VisualBeaconConfig:
     k_vb: float = field(0.1, "turn = k_vb (sum CPU1 left - sum CPU1 right)", min_exclusive=0.0, max=100.0)
     success_radius_m: float = field(3.0, "success: the body comes this close to the landmark's axis (m)",
                                     min_exclusive=0.0, max=50.0)
-    timeout_s: float = field(120.0, "a trial gives up after this long (s)", min_exclusive=0.0, max=3600.0)
+    timeout_s: float = field(120.0, "a trial gives up after this long (s): at least one gait cycle, one look",
+                             min=CYCLE_S, max=3600.0)
     timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
                               min=1e-4, max=0.008)
 

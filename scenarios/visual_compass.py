@@ -35,7 +35,9 @@ from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 class VisualCompassConfig:
     rotation: str = field("incremental", "how the world turns: incremental (a little every gait cycle) or jump "
                           "(to a random angle every jump_every_s)", choices=("incremental", "jump"))
-    duration_s: float = field(40.0, "simulated time per trial (s)", min_exclusive=0.0, max=3600.0)
+    # The first look stores the direction, the next (one gait cycle later) is the first to measure the error.
+    duration_s: float = field(40.0, "simulated time per trial (s): at least two gait cycles", min=2 * CYCLE_S,
+                              max=3600.0)
     incremental_rad: float = field(0.01, "incremental: the world turns this much every gait cycle (rad)",
                                    min=-0.5, max=0.5)
     jump_every_s: float = field(10.0, "jump: the world jumps to a new random angle this often (s)", min=1.28,

@@ -90,6 +90,10 @@ def assert_refused(result, *fragments):
     (["sweep", "path-integration", "--grid", "noise=0.1,"], "--grid 'noise' has an empty value"),
     (["run", "path-integration", "--scheduler", "http://127.0.0.1:8786"], "(http:// is its dashboard)"),
     (["run", "path-integration", "--scheduler", "tcp://127.0.0.1:1"], "cannot reach the Dask scheduler"),
+    # Shorter than the brain's first look (and, for the compass, its second): every trial used to fail.
+    (["run", "visual-compass", "--set", "duration_s=0.001"], "key 'duration_s' must be >= 1.28, got 0.001"),
+    (["run", "visual-beacon", "--set", "timeout_s=0.001"], "key 'timeout_s' must be >= 0.64, got 0.001"),
+    (["run", "odour-trail", "--set", "timeout_s=0.001"], "key 'timeout_s' must be >= 0.64, got 0.001"),
 ])
 def test_errors_knowable_from_the_settings_exit_2_before_anything_runs(tmp_path, args, message):
     out = tmp_path / "out"
@@ -112,6 +116,16 @@ def test_the_config_file_is_checked_after_set_overrides_it(tmp_path):
     result = neuronav("sweep", "path-integration", "--config", str(bad), "--grid", "noise=0.0,0.2", "--workers", "1",
                       "--no-figures", "--out", str(tmp_path / "c"))
     assert result.returncode == 0, result.stderr
+
+
+@pytest.mark.parametrize("args", [["run", "visual-compass"], ["sweep", "cue-integration", "--grid", "trees=1,2"]])
+def test_a_config_file_nested_500_deep_exits_2_in_one_line(tmp_path, args):
+    """It used to print a 3,000-line RecursionError and exit 1."""
+    deep = tmp_path / "deep.toml"
+    deep.write_text("x = " + "[" * 500 + "]" * 500 + "\n")
+    out = tmp_path / "out"
+    assert_refused(neuronav(*args, "--config", str(deep), "--out", str(out)), "nests tables or arrays more than 4 deep")
+    assert not out.exists()
 
 
 def test_a_scenarios_own_trial_cap_is_enforced(tmp_path, plugin_env):
