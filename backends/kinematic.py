@@ -111,6 +111,18 @@ def load_calibration(path: Path) -> UnicycleCalibration:
     return calibration
 
 
+def _start_values(label: str, value, shape: tuple[int, ...], allowed: str) -> np.ndarray:
+    """A start pose's ``value`` broadcast to ``shape`` as a finite float array, or a ConfigError."""
+    try:
+        array = np.broadcast_to(np.asarray(value, float), shape).copy()
+    except (TypeError, ValueError):
+        raise ConfigError(f"kinematic reset: {label} must be {allowed} for {shape[0]} agents, "
+                          f"got shape {np.shape(value)}") from None
+    if not np.isfinite(array).all():
+        raise ConfigError(f"kinematic reset: {label} must be finite, got {np.asarray(value).tolist()}")
+    return array
+
+
 def default_calibration() -> UnicycleCalibration:
     """The table measured on MuJoCo when it ships with the package, else the geometric one."""
     measured = DATA_DIR / "unicycle_mujoco.json"
@@ -205,24 +217,36 @@ class KinematicBackend(BackendBase):
         """Put every agent at ``position_m``, at rest, facing ``heading_rad`` (default 0: along +y).
 
         ``yaw_rad`` (counter-clockwise from +x, as the physics backends take it) may be given
-        instead of the heading: heading = π/2 − yaw. ``seed`` (None or an int >= 0, as on every
-        backend) seeds the world's plume (:attr:`chemistry`); the point agents have no random state.
+        instead of the heading: heading = π/2 − yaw. ``position_m`` is (x, y) or one (x, y) per agent
+        (N, 2); a heading or yaw is one number or N; all finite (else a ConfigError). ``seed`` (None or
+        an int >= 0, as on every backend) seeds the world's plume (:attr:`chemistry`); the point agents
+        have no random state.
         """
-        self.chemistry.reset(check_seed("kinematic", seed))
+        seed = check_seed("kinematic", seed)
         n = self.batch
-        if yaw_rad is not None:
-            heading_rad = np.pi / 2 - np.asarray(yaw_rad, float)
-        self.position = np.zeros((n, 2)) + np.asarray(position_m, float)
+        position = _start_values("position_m", position_m, (n, 2), "(x, y) or (N, 2) m")
+        angle = ("yaw_rad", yaw_rad) if yaw_rad is not None else ("heading_rad", heading_rad)
+        heading = np.zeros(n) if angle[1] is None else _start_values(angle[0], angle[1], (n,), "one number or N rad")
+        self.chemistry.reset(seed)
+        self.position = position
         self.velocity = np.zeros((n, 2))
-        self.heading = np.zeros(n) if heading_rad is None else np.broadcast_to(
-            np.asarray(heading_rad, float), (n,)).copy()
+        self.heading = np.pi / 2 - heading if yaw_rad is not None else heading
         self._commands = {m.name: np.zeros((n,) + m.shape) for m in self.capabilities.motors}
         self._push = None  # (batch, 2) velocity change per step from apply_force, for the next step() call
         self._time_s = 0.0
 
     def write(self, commands: dict[str, np.ndarray]) -> None:
-        """Set commands (held until overwritten); each of shape (batch, 1) or (batch,)."""
-        self._commands.update(self._check_write(commands, self.batch))
+        """Set commands (held until overwritten); each of shape (batch, 1) or (batch,).
+
+        ``antenna_yaw`` must be finite (a PortError, as the physics backends refuse non-finite joint
+        targets): it moves no agent, so :meth:`step`'s divergence check, which stops a non-finite
+        turn or stride, would never see it, and the odour would read NaN.
+        """
+        checked = self._check_write(commands, self.batch)
+        if "antenna_yaw" in checked and not np.isfinite(checked["antenna_yaw"]).all():
+            raise PortError(f"kinematic backend: command 'antenna_yaw' must be finite (rad), "
+                            f"got {checked['antenna_yaw'].tolist()}")
+        self._commands.update(checked)
 
     def step(self, n: int = 1) -> None:
         agents = self._require()
@@ -363,9 +387,6 @@ class KinematicBackend(BackendBase):
             raise ConfigError(f"kinematic backend: cameras need a flat ground without a wall (the ray caster's "
                               f"ground is the plane z = 0), got a {ground.kind!r} ground"
                               + (f" with roughness_m {ground.roughness_m}" if not ground.is_flat else ""))
-        from neuronav.raycast import check_objects
-
-        check_objects(world.objects)
         for camera in cameras:
             if camera.projection not in ("planar", "spherical"):
                 raise ConfigError(f"camera {camera.name!r}: unknown projection {camera.projection!r}; "

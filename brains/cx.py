@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from neuronav import Circuit, MotorSpec, SensorSpec
+from neuronav.errors import ConfigError
 
 N_COLUMNS = 8
 # Memory integration per step (h) and its constant leak factor (k), Stone et al. 2017.
@@ -29,7 +30,9 @@ MOTOR_PORT = MotorSpec("motor", (1,), "rad")
 
 
 def preferred_headings_rad(size: int = 16) -> np.ndarray:
-    """Preferred headings of TL2/CL1/CPU cells: ``(i mod 8) * 45°`` for i < size."""
+    """Preferred headings of TL2/CL1/CPU cells: ``(i mod 8) * 45°`` for i < size (0 to 10⁶)."""
+    if isinstance(size, bool) or not isinstance(size, int | np.integer) or not 0 <= size <= 10 ** 6:
+        raise ConfigError(f"preferred_headings_rad: size must be an int in [0, 1000000], got {size!r}")
     return (np.arange(size) % N_COLUMNS) * (2.0 * np.pi / N_COLUMNS)
 
 
@@ -150,7 +153,12 @@ def decode_home_vector(cpu4: np.ndarray, memory_gain: float = CPU4_GAIN) -> tupl
         Distance estimate in the integrator's units (grows with the distance travelled until the
         memory saturates).
     """
-    cpu4 = np.atleast_2d(cpu4)
+    try:
+        cpu4 = np.atleast_2d(np.asarray(cpu4))
+    except ValueError:  # rows of unequal length
+        cpu4 = np.zeros((0, 0))
+    if cpu4.ndim != 2 or cpu4.shape[1] != 16 or cpu4.dtype.kind not in "iuf":
+        raise ConfigError(f"decode_home_vector: cpu4 must be numbers of shape (batch, 16), got shape {cpu4.shape}")
     signal = np.roll(cpu4[:, :8], 1, axis=1) + np.roll(cpu4[:, 8:], -1, axis=1)
     # Summed per row (not a BLAS product, which rounds a row differently for another batch size).
     harmonic = (signal * np.exp(1j * preferred_headings_rad(8))).sum(axis=1)

@@ -36,6 +36,10 @@ N_ZERNIKE = 81  # amplitudes of the Zernike moments up to order 16
 # (panorama code; measured by tests/unit/test_mushroom_body.py).
 KC_THRESHOLD = 6.0
 PANORAMA_COLUMNS, PANORAMA_ROWS = 36, 9  # 10° blocks of the upper hemisphere: 324 PNs
+# Size bounds (25 times Sun's 4000 KCs): the KC wiring draws one KC at a time (about 2 s for
+# MAX_KC), and its dense PN->KC matrix stays under 256 MB of float64.
+MAX_KC = 100_000
+MAX_KC_WEIGHTS = 2 ** 25
 
 
 def kc_wiring(n_kc: int, n_pn: int, inputs_per_kc: int, seed: int) -> np.ndarray:
@@ -100,7 +104,7 @@ def mushroom_body(n_pn: int = N_ZERNIKE, n_kc: int = N_KC, inputs_per_kc: int = 
         Projection neurons: the length of the view code on port ``pn`` (81 Zernike amplitudes by
         default; ``PANORAMA_ROWS * PANORAMA_COLUMNS`` = 324 for :func:`panorama_code`).
     n_kc : int
-        Kenyon cells.
+        Kenyon cells (1 to :data:`MAX_KC`, with ``n_kc * n_pn`` at most :data:`MAX_KC_WEIGHTS`).
     inputs_per_kc : int
         PNs each KC reads (1..n_pn).
     kc_threshold : float
@@ -116,6 +120,9 @@ def mushroom_body(n_pn: int = N_ZERNIKE, n_kc: int = N_KC, inputs_per_kc: int = 
                                  ("seed", seed, 0)):
         if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lowest:
             raise ConfigError(f"mushroom_body: {label} must be an int >= {lowest}, got {value!r}")
+    if n_kc > MAX_KC or n_kc * n_pn > MAX_KC_WEIGHTS:
+        raise ConfigError(f"mushroom_body: n_kc ({n_kc}) must be at most {MAX_KC} and n_kc * n_pn ({n_kc * n_pn}) "
+                          f"at most {MAX_KC_WEIGHTS} (the PN->KC weights' memory bound)")
     if inputs_per_kc > n_pn:
         raise ConfigError(f"mushroom_body: inputs_per_kc ({inputs_per_kc}) cannot exceed n_pn ({n_pn})")
     for label, value in (("kc_threshold", kc_threshold), ("learning_rate", learning_rate)):
@@ -139,13 +146,27 @@ def kc_sparsity(compiled) -> np.ndarray:
     return compiled.rates("KC").mean(axis=1)
 
 
+def _check_codes(where: str, compiled, codes) -> np.ndarray:
+    """``codes`` as a finite float array (V, n_pn) for ``compiled``'s ``pn`` port, or a ConfigError."""
+    n_pn = next(s.shape[0] for s in compiled.sensors if s.name == "pn")
+    try:
+        array = np.asarray(codes, float)
+    except (TypeError, ValueError):
+        array = np.full(0, np.nan)
+    if array.ndim != 2 or array.shape[1] != n_pn or not np.isfinite(array).all():
+        raise ConfigError(f"{where}: codes must be finite numbers of shape (views, {n_pn}), got "
+                          f"{'non-finite values' if array.shape[1:] == (n_pn,) else f'shape {np.shape(codes)}'}")
+    return array
+
+
 def learn_views(compiled, codes: np.ndarray) -> None:
     """Store views one after another (learning on), every agent of ``compiled`` the same views.
 
-    ``codes`` (V, n_pn): one step per view.
+    ``codes`` (V, n_pn): one step per view, finite (else a ConfigError).
     """
+    codes = _check_codes("learn_views", compiled, codes)
     gate = np.ones((compiled.batch, 1))
-    for code in np.asarray(codes, float):
+    for code in codes:
         compiled.step({"pn": np.broadcast_to(code, (compiled.batch, code.size)), "learning": gate})
 
 
@@ -155,8 +176,9 @@ def novelty(compiled, codes: np.ndarray) -> np.ndarray:
 
     The views are evaluated ``compiled.batch`` at a time, each batch slot holding agent 0's weights
     (restored afterwards): the per-agent weights let one learnt memory judge many views in one step.
+    ``codes`` (V, n_pn), finite (else a ConfigError).
     """
-    codes = np.asarray(codes, float)
+    codes = _check_codes("novelty", compiled, codes)
     name = "KC->MBON"
     saved = compiled.weights(name)
     compiled.set_weights(name, saved[:1])

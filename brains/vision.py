@@ -35,16 +35,25 @@ from math import factorial
 
 import numpy as np
 
-from neuronav.errors import ConfigError, PortError
+from neuronav.errors import ConfigError, PortError, real_or_nan
 
 DARK_THRESHOLD = 20.0 / 255.0  # I2Bot: 10-25 of 255
 MAX_SHIFT = 3  # |6 delta / W| <= 3 for a landmark anywhere in the image
 MAX_STRIDE_DEG = 40.0  # the FK gait's largest hip swing
+# Size bounds of a Zernike basis: orders up to MAX_ZERNIKE_ORDER (Sun et al. use 16; the radial
+# polynomials' factorials lose precision far beyond), and a complex matrix of at most
+# MAX_BASIS_ENTRIES (256 MB).
+MAX_ZERNIKE_ORDER = 40
+MAX_BASIS_ENTRIES = 2 ** 24
+
 
 
 def _images(image, where: str) -> np.ndarray:
     """A grey image (H, W) or batch (N, H, W) as (N, H, W) float, or a PortError naming the problem."""
-    array = np.asarray(image, dtype=float)
+    try:
+        array = np.asarray(image, dtype=float)
+    except (TypeError, ValueError):
+        raise PortError(f"{where}: needs a grey image of numbers, got {type(image).__name__}") from None
     if array.ndim == 2:
         array = array[None]
     if array.ndim != 3 or min(array.shape) < 1:
@@ -57,7 +66,7 @@ def _images(image, where: str) -> np.ndarray:
 def landmark_offset_px(image, threshold: float = DARK_THRESHOLD) -> np.ndarray:
     """δ = W/2 − P per image (N,): how far the dark pixels' mean column lies left of the centre (px); NaN when none."""
     images = _images(image, "landmark_offset_px")
-    if not (np.isfinite(threshold) and 0.0 <= threshold <= 1.0):
+    if not 0.0 <= real_or_nan(threshold) <= 1.0:
         raise ConfigError(f"landmark_offset_px: threshold must be a grey level in [0, 1], got {threshold!r}")
     dark = images <= threshold
     columns = np.arange(images.shape[2]) + 0.5
@@ -100,9 +109,12 @@ def beacon_shift(eye_left=None, eye_right=None, threshold: float = DARK_THRESHOL
 
 def radial_polynomial(n: int, m: int, rho) -> np.ndarray:
     """Zernike's radial polynomial R_{n,m}(ρ) (n − |m| even, |m| <= n)."""
+    if not all(isinstance(v, int | np.integer) and not isinstance(v, bool) for v in (n, m)):
+        raise ConfigError(f"radial_polynomial: n and m must be ints, got n={n!r}, m={m!r}")
     m = abs(m)
-    if n < 0 or m > n or (n - m) % 2:
-        raise ConfigError(f"radial_polynomial: needs 0 <= |m| <= n and n - |m| even, got n={n}, m={m}")
+    if n < 0 or m > n or (n - m) % 2 or n > MAX_ZERNIKE_ORDER:
+        raise ConfigError(f"radial_polynomial: needs 0 <= |m| <= n <= {MAX_ZERNIKE_ORDER} and n - |m| even, "
+                          f"got n={n}, m={m}")
     rho = np.asarray(rho, dtype=float)
     return sum((-1) ** k * factorial(n - k) / (factorial(k) * factorial((n + m) // 2 - k) * factorial((n - m) // 2 - k))
                * rho ** (n - 2 * k) for k in range((n - m) // 2 + 1))
@@ -143,6 +155,12 @@ class ZernikeBasis:
         rows = height_px // 2 if rows is None else rows
         if isinstance(rows, bool) or not isinstance(rows, (int, np.integer)) or not 1 <= rows <= height_px:
             raise ConfigError(f"ZernikeBasis: rows must be an int in 1..{height_px}, got {rows!r}")
+        if n_max > MAX_ZERNIKE_ORDER:
+            raise ConfigError(f"ZernikeBasis: n_max must be at most {MAX_ZERNIKE_ORDER}, got {n_max!r}")
+        entries = int(rows) * int(width_px) * len(zernike_orders(int(n_max)))
+        if entries > MAX_BASIS_ENTRIES:
+            raise ConfigError(f"ZernikeBasis: rows x width_px x orders ({entries}) must be at most "
+                              f"{MAX_BASIS_ENTRIES} (the basis matrix's memory bound)")
         self.shape = (int(height_px), int(width_px))
         self.rows = int(rows)
         self.orders = zernike_orders(int(n_max))
@@ -184,11 +202,11 @@ def compass_command(phase_rad: float, stored_phase_rad: float, dead_band_deg: fl
     direction when the ant has turned right of it), S_l = |Φ(t) − Φ(0)|/5 in degrees (at most the
     gait's 40°); (0, 0) within the dead band.
     """
-    values = np.array([phase_rad, stored_phase_rad, dead_band_deg], dtype=float)
-    if not np.isfinite(values).all() or dead_band_deg < 0:
+    values = np.array([real_or_nan(v) for v in (phase_rad, stored_phase_rad, dead_band_deg)])
+    if not np.isfinite(values).all() or values[2] < 0:
         raise ConfigError(f"compass_command: phases must be finite and dead_band_deg >= 0, got {phase_rad!r}, "
                           f"{stored_phase_rad!r}, {dead_band_deg!r}")
-    difference_deg = float(np.degrees(np.angle(np.exp(1j * (phase_rad - stored_phase_rad)))))
+    difference_deg = float(np.degrees(np.angle(np.exp(1j * (values[0] - values[1])))))
     if abs(difference_deg) < dead_band_deg:
         return 0.0, 0.0
     return float(np.sign(difference_deg)), float(np.radians(min(abs(difference_deg) / 5.0, MAX_STRIDE_DEG)))

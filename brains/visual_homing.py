@@ -32,13 +32,25 @@ from neuronav.errors import ConfigError
 COLUMN_DEG = 5.0
 
 
+def _images(where: str, label: str, images) -> np.ndarray:
+    """``images`` as a float array of finite grey values, or a ConfigError naming ``where`` and ``label``."""
+    try:
+        array = np.asarray(images, float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{where}: {label} must be grey images (numbers), got {type(images).__name__}") from None
+    # Grey values are in [0, 1]: bounding them keeps every square and sum finite.
+    if not (np.isfinite(array).all() and (array.size == 0 or np.abs(array).max() <= 1e100)):
+        raise ConfigError(f"{where}: {label} must be finite grey values (|value| <= 1e100)")
+    return array
+
+
 def skyline_view(panorama: np.ndarray, band_deg: float = 45.0) -> np.ndarray:
     """The band of a spherical panorama from the horizon up to ``band_deg``, pairs of rows averaged.
 
     Parameters
     ----------
     panorama : ndarray, shape (N, H, W) or (H, W)
-        Grey images, row 0 at the zenith, row H/2 at the horizon (the ``panorama`` camera).
+        Grey images, finite, row 0 at the zenith, row H/2 at the horizon (the ``panorama`` camera).
     band_deg : float
         Elevation the band reaches, degrees (0 < band_deg <= 90).
 
@@ -47,12 +59,13 @@ def skyline_view(panorama: np.ndarray, band_deg: float = 45.0) -> np.ndarray:
     ndarray, shape (N, rows, W)
         ``rows = round(band_deg / (180 / H)) // 2`` rows of averaged pairs, top first.
     """
-    images = np.asarray(panorama, float)
+    images = _images("skyline_view", "panorama", panorama)
     if images.ndim == 2:
         images = images[None]
     if images.ndim != 3 or images.shape[1] < 4:
         raise ConfigError(f"skyline_view: expected panoramas of shape (N, H, W), got {np.shape(panorama)}")
-    if not 0 < band_deg <= 90:
+    if isinstance(band_deg, bool) or not isinstance(band_deg, int | float | np.integer | np.floating) \
+            or not 0 < band_deg <= 90:
         raise ConfigError(f"skyline_view: band_deg must be in (0, 90], got {band_deg!r}")
     height = images.shape[1]
     horizon = height // 2
@@ -68,6 +81,7 @@ def ridf(views: np.ndarray, snapshots: np.ndarray) -> np.ndarray:
     ----------
     views : ndarray, shape (N, R, W)
     snapshots : ndarray, shape (K, R, W)
+        Finite grey values (|value| <= 1e100), else a ConfigError.
 
     Returns
     -------
@@ -75,10 +89,10 @@ def ridf(views: np.ndarray, snapshots: np.ndarray) -> np.ndarray:
         Entry (n, k, j): RMS difference between snapshot k and view n turned clockwise by j columns
         (``roll(view, -j)``, the view at heading + j · 5°).
     """
-    views, snapshots = np.asarray(views, float), np.asarray(snapshots, float)
-    if views.ndim != 3 or snapshots.ndim != 3 or views.shape[1:] != snapshots.shape[1:]:
+    views, snapshots = _images("ridf", "views", views), _images("ridf", "snapshots", snapshots)
+    if views.ndim != 3 or snapshots.ndim != 3 or views.shape[1:] != snapshots.shape[1:] or min(views.shape[1:]) < 1:
         raise ConfigError(f"ridf: views {views.shape} and snapshots {snapshots.shape} must be (N, R, W) and "
-                          "(K, R, W) with the same R and W")
+                          "(K, R, W) with the same R >= 1 and W >= 1")
     width = views.shape[2]
     # sum_c roll(V, -j)[c] S[c] = sum_c V[c + j] S[c]: a circular cross-correlation along the columns.
     spectrum_v = np.fft.rfft(views, axis=2)
@@ -118,7 +132,13 @@ def homing_direction(views: np.ndarray, heading_rad: np.ndarray,
     flat = differences.reshape(n_views, -1).argmin(axis=1)
     best_snapshot, best_shift = np.divmod(flat, width)
     turn_rad = np.radians(COLUMN_DEG) * best_shift
-    heading = np.asarray(heading_rad, float).reshape(-1)
+    try:
+        heading = np.asarray(heading_rad, float).reshape(-1)
+    except (TypeError, ValueError):
+        heading = np.full(0, np.nan)
+    if heading.size not in (1, n_views) or not np.isfinite(heading).all():
+        raise ConfigError(f"homing_direction: heading_rad must be one finite number or {n_views}, got "
+                          f"{heading_rad!r}")
     direction = np.angle(np.exp(1j * (heading + turn_rad)))
     envelope = differences.min(axis=1)
     median = np.median(envelope, axis=1)

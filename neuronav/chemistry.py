@@ -15,6 +15,11 @@ engine timestep would double the cost of a trial; at 10 ms it is a tenth of that
 the same sequence of states on every backend (a reading may lag the engine by less than one plume
 step). A trial that never reads odour or wind never steps its plume.
 
+A plume runs at most :data:`MAX_PLUME_STEPS` steps in all (warm-up included: about 28 h of plume
+time at the default step, against minutes in any scenario), and its step is at most
+:data:`~neuronav.plume.MAX_PLUME_DT_S`: a longer warm-up or a later time is refused at once
+(:class:`~neuronav.errors.ConfigError`) rather than run for hours.
+
 Odour channels
 --------------
 Sensors read ``n_odours`` channels per site (at least 1): channel k sums every trail with
@@ -27,11 +32,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neuronav.errors import ConfigError
-from neuronav.plume import Plume, PlumeConfig
+from neuronav.errors import ConfigError, real_or_nan
+from neuronav.odour import query_points
+from neuronav.plume import MAX_PLUME_DT_S, MAX_STEPS_PER_CALL, Plume, PlumeConfig, plume_seed
 
 # Farrell et al. 2002's timestep (docs/parameters.md §5).
 PLUME_DT_S = 0.01
+# The most plume steps one trial runs, warm-up included (see the module docstring).
+MAX_PLUME_STEPS = MAX_STEPS_PER_CALL
+
+
+def _seconds(label: str, value) -> float:
+    """A finite number of seconds >= 0, or a ConfigError naming ``label``."""
+    number = real_or_nan(value)
+    if not (np.isfinite(number) and number >= 0):
+        raise ConfigError(f"{label}: expected a finite number of seconds >= 0, got {value!r}")
+    return number
 
 
 @dataclass(frozen=True)
@@ -47,9 +63,10 @@ class OdourScene:
     plume : PlumeConfig or None
         A live filament plume and its wind (None: still air, no plume).
     warmup_s : float
-        How long the plume runs before the trial starts (the paper lets it fill the arena first).
+        How long the plume runs before the trial starts (the paper lets it fill the arena first);
+        at most :data:`MAX_PLUME_STEPS` plume steps.
     plume_dt_s : float
-        The plume's own timestep, seconds.
+        The plume's own timestep, seconds (in (0, :data:`~neuronav.plume.MAX_PLUME_DT_S`]).
     """
 
     trails: tuple = ()
@@ -67,11 +84,13 @@ class OdourScene:
         if self.plume is not None and not isinstance(self.plume, PlumeConfig):
             raise ConfigError(f"odour plume: expected a PlumeConfig or None, got {type(self.plume).__name__}")
         for label in ("warmup_s", "plume_dt_s"):
-            value = getattr(self, label)
-            if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value) or value < 0:
-                raise ConfigError(f"odour {label}: expected a finite number of seconds >= 0, got {value!r}")
-        if not self.plume_dt_s > 0:
-            raise ConfigError(f"odour plume_dt_s: expected a number of seconds > 0, got {self.plume_dt_s!r}")
+            object.__setattr__(self, label, _seconds(f"odour {label}", getattr(self, label)))
+        if not 0 < self.plume_dt_s <= MAX_PLUME_DT_S:
+            raise ConfigError(f"odour plume_dt_s: expected a number of seconds in (0, {MAX_PLUME_DT_S:g}], "
+                              f"got {self.plume_dt_s!r}")
+        if np.rint(self.warmup_s / self.plume_dt_s) > MAX_PLUME_STEPS:
+            raise ConfigError(f"odour warmup_s: {self.warmup_s:g} s is more than {MAX_PLUME_STEPS} steps of "
+                              f"plume_dt_s {self.plume_dt_s:g} s (at most {MAX_PLUME_STEPS * self.plume_dt_s:g} s)")
 
     @property
     def n_odours(self) -> int:
@@ -113,31 +132,40 @@ class Chemistry:
         self.reset()
 
     def reset(self, seed: int | None = None) -> None:
-        """A new plume from ``seed`` (None: 0), run for the scene's warm-up; trails have no state."""
+        """A new plume from ``seed`` (None: 0, else an int >= 0), run for the scene's warm-up; trails
+        have no state."""
+        seed = plume_seed("chemistry reset", seed)
         self._steps_done = 0
         if self.scene.plume is None:
             self.plume = None
             return
-        self.plume = Plume(self.scene.plume, seed=0 if seed is None else int(seed))
+        self.plume = Plume(self.scene.plume, seed=0 if seed is None else seed)
         warmup_steps = int(round(self.scene.warmup_s / self.scene.plume_dt_s))
         if warmup_steps:
             self.plume.advance(self.scene.plume_dt_s, warmup_steps)
 
     def advance_to(self, time_s: float) -> None:
-        """Step the plume until it has run every whole plume step up to simulation time ``time_s``."""
+        """Step the plume until it has run every whole plume step up to simulation time ``time_s``.
+
+        ``time_s``: a finite number of seconds >= 0, with the warm-up at most :data:`MAX_PLUME_STEPS`
+        plume steps in all (a ConfigError beyond, before any step is run).
+        """
+        scene = self.scene
+        # A hair of tolerance: time kept as a sum of engine steps lands just under a plume step.
+        due = np.floor(_seconds("chemistry advance_to time_s", time_s) / scene.plume_dt_s + 1e-9)
+        if due + np.rint(scene.warmup_s / scene.plume_dt_s) > MAX_PLUME_STEPS:
+            raise ConfigError(f"chemistry advance_to time_s: {time_s!r} s and the {scene.warmup_s:g} s warm-up make "
+                              f"more than {MAX_PLUME_STEPS} plume steps of {scene.plume_dt_s:g} s")
         if self.plume is None:
             return
-        # A hair of tolerance: time kept as a sum of engine steps lands just under a plume step.
-        due = int(np.floor(float(time_s) / self.scene.plume_dt_s + 1e-9))
+        due = int(due)
         if due > self._steps_done:
             self.plume.advance(self.scene.plume_dt_s, due - self._steps_done)
             self._steps_done = due
 
     def odour_at(self, points_m) -> np.ndarray:
         """Every odour's concentration at points (..., 2 or 3) m: shape (..., n_odours)."""
-        points = np.asarray(points_m, dtype=float)
-        if points.ndim < 1 or points.shape[-1] not in (2, 3):
-            raise ConfigError(f"odour query points: expected shape (..., 2) or (..., 3), got {points.shape}")
+        points = query_points("odour query points", points_m)
         out = np.zeros(points.shape[:-1] + (self.n_odours,))
         for trail in self.scene.trails:
             out[..., trail.odour] += trail.concentration_at(points)
@@ -147,9 +175,7 @@ class Chemistry:
 
     def wind_at(self, points_m) -> np.ndarray:
         """Wind (x, y) m/s at points (..., 2 or 3): shape (..., 2); still air without a plume."""
-        points = np.asarray(points_m, dtype=float)
-        if points.ndim < 1 or points.shape[-1] not in (2, 3):
-            raise ConfigError(f"wind query points: expected shape (..., 2) or (..., 3), got {points.shape}")
+        points = query_points("wind query points", points_m)
         if self.plume is None:
             return np.zeros(points.shape[:-1] + (2,))
         return self.plume.wind_at(points)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import functools
 import math
 import os
+import zipfile
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -1030,10 +1031,19 @@ class CompiledCircuit:
         (first axis 1) is given to every agent, else its batch must match.
         """
         try:
-            with np.load(path, allow_pickle=False) as data:
+            data = np.load(path, allow_pickle=False)
+        except (OSError, ValueError, EOFError, TypeError, zipfile.BadZipFile) as error:
+            raise CircuitError(f"load_weights: cannot read {str(path)!r} as an .npz of weights "
+                               f"({' '.join(str(error).split())})") from None
+        if not isinstance(data, np.lib.npyio.NpzFile):
+            raise CircuitError(f"load_weights: {str(path)!r} holds one array (an .npy), not an .npz of weights "
+                               f"written by save_weights")
+        try:
+            with data:
                 arrays = {key: data[key] for key in data.files}
-        except (OSError, ValueError) as error:
-            raise CircuitError(f"load_weights: cannot read {str(path)!r} as an .npz of weights ({error})") from None
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile) as error:
+            raise CircuitError(f"load_weights: cannot read {str(path)!r} as an .npz of weights "
+                               f"({' '.join(str(error).split())})") from None
         if set(arrays) != set(self._plastic):
             raise CircuitError(f"load_weights: {str(path)!r} holds {', '.join(sorted(arrays)) or 'nothing'}; circuit "
                                f"{self.circuit.name!r} has plastic connections {', '.join(self._plastic) or 'none'}")

@@ -31,3 +31,17 @@ class RegistryError(NeuronavError):
 
 class SimulationError(NeuronavError):
     """A simulation diverged or was asked to do something it cannot do."""
+
+
+def real_or_nan(value) -> float:
+    """``value`` as a float, or NaN when it is not a real number (a bool, a string, None, an array...).
+
+    For range checks: NaN fails every comparison, so ``if not low <= real_or_nan(x) <= high: raise
+    ConfigError(...)`` refuses non-numbers, NaN and out-of-range values in one test.
+    """
+    if isinstance(value, bool | str | bytes):
+        return float("nan")
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return float("nan")

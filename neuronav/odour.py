@@ -36,35 +36,59 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from neuronav.errors import ConfigError
+from neuronav.errors import ConfigError, real_or_nan
 
 TRAIL_WIDTHS_M = {"narrow": 0.11, "normal": 0.27, "wide": 1.4}
 DEFAULT_EDGE_M = 0.02
+# Query points and trail vertices lie within ±MAX_COORD_M of the origin (a 2000 km square: no real
+# arena is larger), so that no squared distance overflows to inf and turns into NaN.
+MAX_COORD_M = 1e6
+# The most vertices a trail holds and pixels a rasterised image holds (each a few float64 arrays).
+MAX_VERTICES = 10 ** 6
+MAX_PIXELS = 1 << 24
+# Odour indices are below MAX_ODOURS: a sensor reads one channel per index up to the largest.
+MAX_ODOURS = 256
 # Query points per chunk when a field is evaluated at many points (rasterising): a polyline trail
 # holds (points × segments) float64 arrays, kept near 32 MB each.
 _MAX_PAIRS_PER_CHUNK = 1 << 22
 
 
+def query_points(label: str, points_m) -> np.ndarray:
+    """Query points (..., 2) or (..., 3) as float64, finite and within ±:data:`MAX_COORD_M` m, or a
+    ConfigError naming ``label``."""
+    try:
+        points = np.asarray(points_m, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{label}: expected numbers of shape (..., 2) or (..., 3) m, got {type(points_m).__name__}") \
+            from None
+    if points.ndim < 1 or points.shape[-1] not in (2, 3):
+        raise ConfigError(f"{label}: expected shape (..., 2) or (..., 3), got {points.shape}")
+    if not (np.isfinite(points).all() and (points.size == 0 or np.abs(points).max() <= MAX_COORD_M)):
+        raise ConfigError(f"{label}: every coordinate must be finite and within ±{MAX_COORD_M:g} m")
+    return points
+
+
 def _floor_xy(points_m) -> np.ndarray:
     """The (x, y) of query points of shape (..., 2) or (..., 3), as float64 (..., 2)."""
-    points = np.asarray(points_m, dtype=float)
-    if points.ndim < 1 or points.shape[-1] not in (2, 3):
-        raise ConfigError(f"odour query points: expected shape (..., 2) or (..., 3), got {points.shape}")
-    return points[..., :2]
+    return query_points("odour query points", points_m)[..., :2]
 
 
 def odour_index(label: str, value) -> int:
-    """An odour index (an integer >= 0), or a ConfigError naming ``label``."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
-        raise ConfigError(f"{label}: expected an integer index >= 0, got {value!r}")
+    """An odour index (an integer in [0, :data:`MAX_ODOURS`)), or a ConfigError naming ``label``."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not 0 <= value < MAX_ODOURS:
+        raise ConfigError(f"{label}: expected an integer index in [0, {MAX_ODOURS}), got {value!r}")
     return int(value)
 
 
 def _check_range(name: str, value) -> tuple[float, float]:
-    pair = tuple(float(v) for v in np.asarray(value, float).reshape(-1))
-    if len(pair) != 2 or not np.isfinite(pair).all() or not pair[0] < pair[1]:
-        raise ConfigError(f"{name}: expected (low, high) with low < high, finite, got {value!r}")
+    try:
+        pair = tuple(float(v) for v in np.asarray(value, float).reshape(-1))
+    except (TypeError, ValueError):
+        pair = ()
+    if len(pair) != 2 or not (np.isfinite(pair).all() and max(map(abs, pair)) <= MAX_COORD_M) or not pair[0] < pair[1]:
+        raise ConfigError(f"{name}: expected (low, high) with low < high, within ±{MAX_COORD_M:g}, got {value!r}")
     return pair
+
 
 
 def trail_width_m(width) -> float:
@@ -78,8 +102,8 @@ def trail_width_m(width) -> float:
     except (TypeError, ValueError):
         raise ConfigError(f"trail width: expected a positive number of metres or one of {sorted(TRAIL_WIDTHS_M)}, "
                           f"got {width!r}") from None
-    if not (np.isfinite(value) and value > 0):
-        raise ConfigError(f"trail width: expected a positive number of metres, got {width!r}")
+    if not (np.isfinite(value) and 0 < value <= MAX_COORD_M):
+        raise ConfigError(f"trail width: expected a positive number of metres up to {MAX_COORD_M:g}, got {width!r}")
     return value
 
 
@@ -93,7 +117,7 @@ def rasterise(trail, x_range_m, y_range_m, shape_px) -> np.ndarray:
     x_range_m, y_range_m : (float, float)
         The rectangle's x and y extents, metres.
     shape_px : (int, int)
-        Image height H and width W in pixels.
+        Image height H and width W in pixels (H · W at most :data:`MAX_PIXELS`).
 
     Returns
     -------
@@ -103,9 +127,11 @@ def rasterise(trail, x_range_m, y_range_m, shape_px) -> np.ndarray:
     """
     x0, x1 = _check_range("x_range_m", x_range_m)
     y0, y1 = _check_range("y_range_m", y_range_m)
-    shape = tuple(int(v) for v in np.asarray(shape_px).reshape(-1))
-    if len(shape) != 2 or min(shape) < 1:
-        raise ConfigError(f"shape_px: expected (H, W) with H, W >= 1, got {shape_px!r}")
+    values = np.asarray(shape_px, dtype=object).reshape(-1)
+    if not (len(values) == 2 and all(isinstance(v, int | np.integer) and not isinstance(v, bool) for v in values)
+            and min(values) >= 1 and int(values[0]) * int(values[1]) <= MAX_PIXELS):
+        raise ConfigError(f"shape_px: expected whole numbers (H, W) >= 1 with H·W <= {MAX_PIXELS}, got {shape_px!r}")
+    shape = (int(values[0]), int(values[1]))
     height, width = shape
     xs = x0 + (np.arange(width) + 0.5) * (x1 - x0) / width
     ys = y1 - (np.arange(height) + 0.5) * (y1 - y0) / height
@@ -120,7 +146,8 @@ class PolylineTrail:
     Parameters
     ----------
     vertices_m : array-like, shape (V, 2)
-        The centre line's vertices on the floor, metres (V >= 2; consecutive vertices distinct).
+        The centre line's vertices on the floor, metres (2 <= V <= :data:`MAX_VERTICES`; consecutive
+        vertices distinct; within ±:data:`MAX_COORD_M`).
     width_m : float or str
         Full width at half maximum, metres, or a preset name of :data:`TRAIL_WIDTHS_M`.
     edge_m : float
@@ -141,13 +168,17 @@ class PolylineTrail:
     _inv_len2: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        vertices = np.asarray(self.vertices_m, dtype=float)
-        if vertices.ndim != 2 or vertices.shape[1] != 2 or vertices.shape[0] < 2:
-            raise ConfigError(f"trail vertices_m: expected shape (V, 2) with V >= 2, got {vertices.shape}")
-        if not np.isfinite(vertices).all():
-            raise ConfigError("trail vertices_m: every coordinate must be finite")
+        try:
+            vertices = np.array(self.vertices_m, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(f"trail vertices_m: expected numbers of shape (V, 2), got {self.vertices_m!r}") from None
+        if vertices.ndim != 2 or vertices.shape[1] != 2 or not 2 <= vertices.shape[0] <= MAX_VERTICES:
+            raise ConfigError(f"trail vertices_m: expected shape (V, 2) with 2 <= V <= {MAX_VERTICES}, "
+                              f"got {vertices.shape}")
+        if not (np.isfinite(vertices).all() and np.abs(vertices).max() <= MAX_COORD_M):
+            raise ConfigError(f"trail vertices_m: every coordinate must be finite and within ±{MAX_COORD_M:g} m")
         width = trail_width_m(self.width_m)
-        edge = float(self.edge_m)
+        edge = real_or_nan(self.edge_m)
         if not (np.isfinite(edge) and 0.0 <= edge <= width):
             raise ConfigError(f"trail edge_m: expected a number in [0, width_m = {width}], got {self.edge_m!r}")
         ends = np.vstack([vertices[1:], vertices[:1]]) if self.closed else vertices[1:]
@@ -224,9 +255,14 @@ class ImageTrail:
     odour: int = 0
 
     def __post_init__(self) -> None:
-        raw = np.asarray(self.image)
-        if raw.ndim != 2 or min(raw.shape) < 1:
-            raise ConfigError(f"trail image: expected a greyscale image of shape (H, W), got {raw.shape}")
+        try:
+            raw = np.asarray(self.image)
+        except ValueError:  # a ragged nest of lists
+            raise ConfigError("trail image: expected a greyscale image of shape (H, W), got rows of unequal length") \
+                from None
+        if raw.ndim != 2 or min(raw.shape) < 1 or raw.size > MAX_PIXELS:
+            raise ConfigError(f"trail image: expected a greyscale image of shape (H, W) with H·W <= {MAX_PIXELS}, "
+                              f"got {raw.shape}")
         if raw.dtype == np.uint8:
             image = raw.astype(float) / 255.0
         elif np.issubdtype(raw.dtype, np.number) and not np.issubdtype(raw.dtype, np.complexfloating):
@@ -274,17 +310,26 @@ def straight_trail(start_xy_m, end_xy_m, width="normal", edge_m: float = DEFAULT
 
 def loop_trail(centre_xy_m=(0.0, 0.0), radius_m: float = 2.0, width="normal", n_vertices: int = 96,
                edge_m: float = DEFAULT_EDGE_M) -> PolylineTrail:
-    """A closed circular trail: a regular polygon of ``n_vertices`` (>= 3) on a circle of ``radius_m``.
+    """A closed circular trail: a regular polygon of ``n_vertices`` (3 to :data:`MAX_VERTICES`) on a circle of
+    ``radius_m``.
 
     The polygon's sides sit inside the circle by at most ``radius_m (1 - cos(π / n_vertices))``
     (0.05 % of the radius at the default 96 vertices).
     """
-    if not (isinstance(n_vertices, int | np.integer) and n_vertices >= 3):
-        raise ConfigError(f"loop trail n_vertices: expected an integer >= 3, got {n_vertices!r}")
-    radius = float(radius_m)
-    if not (np.isfinite(radius) and radius > 0):
-        raise ConfigError(f"loop trail radius_m: expected a positive number of metres, got {radius_m!r}")
+    if not (isinstance(n_vertices, int | np.integer) and not isinstance(n_vertices, bool)
+            and 3 <= n_vertices <= MAX_VERTICES):
+        raise ConfigError(f"loop trail n_vertices: expected an integer in [3, {MAX_VERTICES}], got {n_vertices!r}")
+    radius = real_or_nan(radius_m)
+    if not (np.isfinite(radius) and 0 < radius <= MAX_COORD_M):
+        raise ConfigError(f"loop trail radius_m: expected a positive number of metres up to {MAX_COORD_M:g}, "
+                          f"got {radius_m!r}")
+    try:
+        centre = np.asarray(centre_xy_m, dtype=float).reshape(2)
+    except (TypeError, ValueError):
+        centre = np.full(2, np.nan)
+    if not (np.isfinite(centre).all() and np.abs(centre).max() + radius <= MAX_COORD_M):
+        raise ConfigError(f"loop trail centre_xy_m: expected 2 finite numbers, the loop within ±{MAX_COORD_M:g} m, "
+                          f"got {centre_xy_m!r}")
     angles = np.arange(n_vertices) * (2 * np.pi / n_vertices)
-    centre = np.asarray(centre_xy_m, dtype=float).reshape(2)
     vertices = centre + radius * np.stack([np.cos(angles), np.sin(angles)], axis=1)
     return PolylineTrail(vertices, width, edge_m, closed=True)

@@ -48,6 +48,18 @@ the defaults. Other defaults: I2Bot's arena 8 × 4 m (x in [0, 8], y in [-2, 2])
 m/s, release 60/s, r0 0.02 m; Farrell's ζ 0.1, ω 0.2 rad/s, γ 0.001 m²/s. I2Bot kept 200 puffs at
 most, but at 60/s and 2 m/s about 225 puffs are alive over 7.5 m, so that cap would throttle the
 source; ``max_puffs`` is 1000 here (a memory bound that the default plume does not reach).
+
+Bounds on the inputs
+--------------------
+Every parameter is refused (:class:`~neuronav.errors.ConfigError`) outside a physical range far
+beyond any real plume, so that no input can overflow to inf or NaN or run for ever: release rates up
+to :data:`MAX_RELEASE_RATE_HZ`, puff amounts up to :data:`MAX_PUFF_AMOUNT`, a step ``dt_s`` up to
+:data:`MAX_PLUME_DT_S`, at most :data:`MAX_PUFFS` puffs and :data:`MAX_STEPS_PER_CALL` steps per
+:meth:`Plume.advance`, coordinates (arena, sources, query points) within ±1000 km
+(:data:`neuronav.odour.MAX_COORD_M`), and
+the bounds of :class:`WindConfig` and :class:`PlumeConfig` in their docstrings. A plume whose
+state still stops being finite (an unstable wind integration) raises a
+:class:`~neuronav.errors.SimulationError`.
 """
 
 from __future__ import annotations
@@ -56,31 +68,59 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from neuronav.errors import ConfigError
-from neuronav.odour import rasterise
+from neuronav.errors import ConfigError, SimulationError, real_or_nan
+from neuronav.odour import MAX_COORD_M, odour_index, query_points, rasterise
 
 _NORM_3D = (2.0 * np.pi) ** 1.5
 # Query points per chunk: the (points × puffs) float64 array is kept near 32 MB (one chunk for any
 # realistic number of antennae).
 _MAX_PAIRS_PER_CHUNK = 1 << 22
+# Bounds on the inputs (see the module docstring): far beyond any real plume, and small enough that
+# no sum, square or Poisson draw of them overflows.
+MAX_RELEASE_RATE_HZ = 1e6
+MAX_PUFF_AMOUNT = 1e9
+MAX_PLUME_DT_S = 1.0
+MAX_PUFFS = 10 ** 6  # the puff arrays: 56 MB
+MAX_STEPS_PER_CALL = 10 ** 7  # about 28 h of plume at the default 0.01 s
+MAX_WIND_MPS = 100.0
+MAX_NOISE_PARAMETER = 100.0  # ζ, ω (rad/s) and G of the wind noise
+MIN_RADIUS_M, MAX_RADIUS_M = 1e-4, 100.0
+MAX_SPREAD_M_PER_SQRT_S = 100.0
+MAX_GROWTH_M2_PER_S = 100.0
 
 
-def _finite(name: str, value, size: int) -> tuple[float, ...]:
-    arr = np.asarray(value, dtype=float).reshape(-1)
-    if arr.size != size or not np.isfinite(arr).all():
-        raise ConfigError(f"{name}: expected {size} finite numbers, got {value!r}")
+def _finite(name: str, value, size: int, bound: float = MAX_COORD_M) -> tuple[float, ...]:
+    try:
+        arr = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        arr = np.full(0, np.nan)
+    if arr.size != size or not (np.isfinite(arr).all() and np.abs(arr).max() <= bound):
+        raise ConfigError(f"{name}: expected {size} finite numbers within ±{bound:g}, got {value!r}")
     return tuple(float(v) for v in arr)
 
 
-def _positive(name: str, value, allow_zero: bool = False) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        number = float("nan")
-    if not np.isfinite(number) or number < 0 or (number == 0 and not allow_zero):
-        allowed = "a finite number >= 0" if allow_zero else "a finite number > 0"
-        raise ConfigError(f"{name}: expected {allowed}, got {value!r}")
+def _positive(name: str, value, allow_zero: bool = False, high: float = np.inf, low: float = 0.0) -> float:
+    number = real_or_nan(value)
+    if not (low <= number <= high) or not np.isfinite(number) or (number == 0 and not allow_zero):
+        allowed = (f"{'>=' if allow_zero or low > 0 else '>'} {low:g}" + (f" and <= {high:g}" if high < np.inf else "")
+                   + ", finite")
+        raise ConfigError(f"{name}: expected a number {allowed}, got {value!r}")
     return number
+
+
+def _count(name: str, value, low: int, high: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not low <= value <= high:
+        raise ConfigError(f"{name}: expected an integer in [{low}, {high}], got {value!r}")
+    return int(value)
+
+
+def plume_seed(where: str, seed) -> int | np.random.Generator | None:
+    """A plume's seed: None, an int >= 0 or a ``np.random.Generator``, or a ConfigError naming ``where``."""
+    if seed is None or isinstance(seed, np.random.Generator):
+        return seed
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ConfigError(f"{where}: seed must be None, an int >= 0 or a numpy Generator, got {seed!r}")
+    return int(seed)
 
 
 @dataclass(frozen=True)
@@ -92,11 +132,13 @@ class OdourSource:
     position_m : (float, float, float)
         Where puffs are released, metres (must lie inside the plume's arena in x and y).
     release_rate_hz : float
-        Mean rate of the Poisson release, puffs per second (> 0).
+        Mean rate of the Poisson release, puffs per second (in (0, :data:`MAX_RELEASE_RATE_HZ`]).
     odour : int
-        Which odour the puffs carry (index into the concentration's last axis, >= 0).
+        Which odour the puffs carry (index into the concentration's last axis, in [0,
+        :data:`neuronav.odour.MAX_ODOURS`)).
     puff_amount : float
-        Q, the amount of odour in one puff (> 0); concentrations are amount per m³.
+        Q, the amount of odour in one puff (in (0, :data:`MAX_PUFF_AMOUNT`]); concentrations are
+        amount per m³.
     """
 
     position_m: tuple[float, float, float] = (0.5, 0.0, 0.0)
@@ -106,10 +148,11 @@ class OdourSource:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "position_m", _finite("source position_m", self.position_m, 3))
-        object.__setattr__(self, "release_rate_hz", _positive("source release_rate_hz", self.release_rate_hz))
-        object.__setattr__(self, "puff_amount", _positive("source puff_amount", self.puff_amount))
-        if not (isinstance(self.odour, int | np.integer) and not isinstance(self.odour, bool) and self.odour >= 0):
-            raise ConfigError(f"source odour: expected an integer index >= 0, got {self.odour!r}")
+        object.__setattr__(self, "release_rate_hz", _positive("source release_rate_hz", self.release_rate_hz,
+                                                                 high=MAX_RELEASE_RATE_HZ))
+        object.__setattr__(self, "puff_amount", _positive("source puff_amount", self.puff_amount,
+                                                          high=MAX_PUFF_AMOUNT))
+        object.__setattr__(self, "odour", odour_index("source odour", self.odour))
 
 
 @dataclass(frozen=True)
@@ -119,14 +162,14 @@ class WindConfig:
     Parameters
     ----------
     mean_mps : (float, float)
-        Mean wind velocity (x, y), m/s.
+        Mean wind velocity (x, y), m/s, each within ±:data:`MAX_WIND_MPS`.
     damping : float
-        ζ of the second-order noise (> 0).
+        ζ of the second-order noise (in (0, :data:`MAX_NOISE_PARAMETER`]).
     bandwidth_rad_s : float
-        ω of the second-order noise, rad/s (> 0).
+        ω of the second-order noise, rad/s (in (0, :data:`MAX_NOISE_PARAMETER`]).
     gain : float
-        G of the second-order noise (>= 0; 0: a steady wind), in m/s per √(rad/s): the stationary
-        variance is G² ω / (4 ζ) (m/s)².
+        G of the second-order noise (in [0, :data:`MAX_NOISE_PARAMETER`]; 0: a steady wind), in m/s
+        per √(rad/s): the stationary variance is G² ω / (4 ζ) (m/s)².
     start_stationary : bool
         Draw the initial noise state from its stationary distribution (True) or start it at 0.
     """
@@ -138,10 +181,11 @@ class WindConfig:
     start_stationary: bool = True
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "mean_mps", _finite("wind mean_mps", self.mean_mps, 2))
-        object.__setattr__(self, "damping", _positive("wind damping", self.damping))
-        object.__setattr__(self, "bandwidth_rad_s", _positive("wind bandwidth_rad_s", self.bandwidth_rad_s))
-        object.__setattr__(self, "gain", _positive("wind gain", self.gain, allow_zero=True))
+        object.__setattr__(self, "mean_mps", _finite("wind mean_mps", self.mean_mps, 2, MAX_WIND_MPS))
+        object.__setattr__(self, "damping", _positive("wind damping", self.damping, high=MAX_NOISE_PARAMETER))
+        object.__setattr__(self, "bandwidth_rad_s", _positive("wind bandwidth_rad_s", self.bandwidth_rad_s,
+                                                              high=MAX_NOISE_PARAMETER))
+        object.__setattr__(self, "gain", _positive("wind gain", self.gain, allow_zero=True, high=MAX_NOISE_PARAMETER))
 
 
 @dataclass(frozen=True)
@@ -155,15 +199,15 @@ class PlumeConfig:
     wind : WindConfig
         The wind.
     puff_spread_m_per_sqrt_s : float
-        σ, the white noise on each puff's centre, m/√s (>= 0).
+        σ, the white noise on each puff's centre, m/√s (in [0, :data:`MAX_SPREAD_M_PER_SQRT_S`]).
     growth_m2_per_s : float
-        γ, the linear growth of r², m²/s (>= 0).
+        γ, the linear growth of r², m²/s (in [0, :data:`MAX_GROWTH_M2_PER_S`]).
     initial_radius_m : float
-        r0, a new puff's radius, metres (> 0).
+        r0, a new puff's radius, metres (in [:data:`MIN_RADIUS_M`, :data:`MAX_RADIUS_M`]).
     arena_x_m, arena_y_m : (float, float)
-        The arena rectangle; puffs whose centre leaves it are dropped.
+        The arena rectangle (within ±:data:`neuronav.odour.MAX_COORD_M`); puffs whose centre leaves it are dropped.
     max_puffs : int
-        Most puffs alive at once, over all sources (>= 1).
+        Most puffs alive at once, over all sources (1 to :data:`MAX_PUFFS`).
     planar : bool
         Ignore the vertical offset between query points and puffs (the 2-D model), or not.
     """
@@ -186,17 +230,18 @@ class PlumeConfig:
         if not isinstance(self.wind, WindConfig):
             raise ConfigError(f"plume wind: expected a WindConfig, got {type(self.wind).__name__}")
         object.__setattr__(self, "puff_spread_m_per_sqrt_s",
-                           _positive("plume puff_spread_m_per_sqrt_s", self.puff_spread_m_per_sqrt_s, True))
-        object.__setattr__(self, "growth_m2_per_s", _positive("plume growth_m2_per_s", self.growth_m2_per_s, True))
-        object.__setattr__(self, "initial_radius_m", _positive("plume initial_radius_m", self.initial_radius_m))
+                           _positive("plume puff_spread_m_per_sqrt_s", self.puff_spread_m_per_sqrt_s, True,
+                                     MAX_SPREAD_M_PER_SQRT_S))
+        object.__setattr__(self, "growth_m2_per_s", _positive("plume growth_m2_per_s", self.growth_m2_per_s, True,
+                                                              MAX_GROWTH_M2_PER_S))
+        object.__setattr__(self, "initial_radius_m", _positive("plume initial_radius_m", self.initial_radius_m,
+                                                               high=MAX_RADIUS_M, low=MIN_RADIUS_M))
         for name in ("arena_x_m", "arena_y_m"):
             pair = _finite(f"plume {name}", getattr(self, name), 2)
             if not pair[0] < pair[1]:
                 raise ConfigError(f"plume {name}: expected (low, high) with low < high, got {getattr(self, name)!r}")
             object.__setattr__(self, name, pair)
-        if not (isinstance(self.max_puffs, int | np.integer) and not isinstance(self.max_puffs, bool)
-                and self.max_puffs >= 1):
-            raise ConfigError(f"plume max_puffs: expected an integer >= 1, got {self.max_puffs!r}")
+        object.__setattr__(self, "max_puffs", _count("plume max_puffs", self.max_puffs, 1, MAX_PUFFS))
         for index, source in enumerate(sources):
             x, y, _ = source.position_m
             if not (self.arena_x_m[0] <= x <= self.arena_x_m[1] and self.arena_y_m[0] <= y <= self.arena_y_m[1]):
@@ -272,9 +317,7 @@ class Wind:
 
     def velocity_at(self, points_m) -> np.ndarray:
         """Wind at points (..., 2 or 3), m/s, shape (..., 2)."""
-        points = np.asarray(points_m, dtype=float)
-        if points.ndim < 1 or points.shape[-1] not in (2, 3):
-            raise ConfigError(f"wind query points: expected shape (..., 2) or (..., 3), got {points.shape}")
+        points = query_points("wind query points", points_m)
         return np.broadcast_to(self.velocity_mps, points.shape[:-1] + (2,)).copy()
 
 
@@ -306,7 +349,7 @@ class Plume:
     ----------
     config : PlumeConfig
         The model's parameters.
-    seed : int or np.random.Generator
+    seed : int >= 0, np.random.Generator or None
         Seeds every random draw (release times, puff noise, wind); same seed, same plume.
 
     Examples
@@ -326,7 +369,7 @@ class Plume:
     def __post_init__(self) -> None:
         if not isinstance(self.config, PlumeConfig):
             raise ConfigError(f"plume config: expected a PlumeConfig, got {type(self.config).__name__}")
-        self._rng = np.random.default_rng(self.seed)
+        self._rng = np.random.default_rng(plume_seed("plume", self.seed))
         self.wind = Wind(self.config.wind, self._rng)
         cap = int(self.config.max_puffs)
         self._position = np.zeros((cap, 3))
@@ -364,13 +407,16 @@ class Plume:
 
         Each step: the puffs move with the wind and their noise, grow, and those that left the arena
         are dropped; then the wind steps; then each source releases a Poisson(rate · dt) number of puffs
-        (as many as ``max_puffs`` allows).
+        (as many as ``max_puffs`` allows). ``dt_s`` in (0, :data:`MAX_PLUME_DT_S`], ``steps`` in
+        [0, :data:`MAX_STEPS_PER_CALL`]; a wind or puff that stops being finite is a SimulationError.
         """
-        dt = _positive("plume dt_s", dt_s)
-        if not (isinstance(steps, int | np.integer) and steps >= 0):
-            raise ConfigError(f"plume steps: expected an integer >= 0, got {steps!r}")
-        for _ in range(int(steps)):
+        dt = _positive("plume dt_s", dt_s, high=MAX_PLUME_DT_S)
+        for _ in range(_count("plume steps", steps, 0, MAX_STEPS_PER_CALL)):
             self._step(dt)
+        # One sum is finite exactly when every term is: checked once per call, not per step.
+        if not np.isfinite(self.wind.velocity_mps.sum() + self._position[:self._n].sum() + self._r2[:self._n].sum()):
+            raise SimulationError("plume diverged: the wind or a puff is not finite (lower dt_s or the wind's "
+                                  "bandwidth_rad_s)")
 
     def _step(self, dt: float) -> None:
         cfg = self.config
@@ -415,9 +461,7 @@ class Plume:
         np.ndarray, shape (..., n_odours)
             One array operation over (points × puffs), whatever the number of agents and antennae.
         """
-        points = np.asarray(points_m, dtype=float)
-        if points.ndim < 1 or points.shape[-1] not in (2, 3):
-            raise ConfigError(f"plume query points: expected shape (..., 2) or (..., 3), got {points.shape}")
+        points = query_points("plume query points", points_m)
         lead = points.shape[:-1]
         n = self._n
         if n == 0:
@@ -459,6 +503,8 @@ class Plume:
         """
         if not (isinstance(odour, int | np.integer) and 0 <= odour < self._n_odours):
             raise ConfigError(f"plume odour: expected an index in [0, {self._n_odours}), got {odour!r}")
+        if z_m is not None:
+            z_m = _finite("plume rasterise z_m", z_m, 1)[0]
         x_range = self.config.arena_x_m if x_range_m is None else x_range_m
         y_range = self.config.arena_y_m if y_range_m is None else y_range_m
         plume = self
@@ -467,7 +513,7 @@ class Plume:
             def concentration_at(self, points_m):
                 points = np.asarray(points_m, dtype=float)
                 if z_m is not None:
-                    points = np.concatenate([points, np.full(points.shape[:-1] + (1,), float(z_m))], axis=-1)
+                    points = np.concatenate([points, np.full(points.shape[:-1] + (1,), z_m)], axis=-1)
                 return plume.concentration_at(points)[..., odour]
 
         return rasterise(_Layer(), x_range, y_range, shape_px)

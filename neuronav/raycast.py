@@ -32,7 +32,7 @@ import numpy as np
 from neuronav.errors import ConfigError
 from neuronav.trail_floor import trail_floor
 from neuronav.vision import FAR_M, NEAR_M, sky_rgb, to_uint8
-from neuronav.world import World, WorldObject
+from neuronav.world import OBJECT_SIZES, World, WorldObject
 
 # Rays per chunk of agents: each float64 array over a chunk is 8 MB; the ground, the sky and the
 # hit bookkeeping hold a few dozen of them.
@@ -40,23 +40,14 @@ MAX_RAYS_PER_CHUNK = 1 << 20
 TILE_PX = 6
 # Palette slots before the objects' colours: the sky (painted from its direction), the ground, its checker.
 _SKY, _GROUND, _CHECKER, _FIRST_OBJECT = 0, 1, 2, 3
-_SIZES = {"box": 3, "cylinder": 2, "cone": 2, "sphere": 1}
 
 
-def check_objects(objects) -> None:
-    """Refuse objects the ray caster cannot draw: wrong number of sizes, or not finite and positive."""
-    for index, obj in enumerate(objects):
-        if not isinstance(obj, WorldObject):
-            raise ConfigError(f"world object {index}: expected a WorldObject, got {type(obj).__name__}")
-        size = np.asarray(obj.size_m, float).reshape(-1)
-        expected = _SIZES[obj.shape]
-        if size.size != expected or not (np.isfinite(size).all() and size.min() > 0):
-            raise ConfigError(f"world object {index} ({obj.shape}): size_m needs {expected} positive values, "
-                              f"got {tuple(obj.size_m)}")
-        position = np.asarray(obj.position_m, float).reshape(-1)
-        if position.size != 3 or not np.isfinite(position).all():
-            raise ConfigError(f"world object {index} ({obj.shape}): position_m needs 3 finite values, "
-                              f"got {tuple(obj.position_m)}")
+def _floats(label: str, values) -> np.ndarray:
+    """``values`` as a float array, or a ConfigError naming ``label`` when they are not numbers."""
+    try:
+        return np.asarray(values, float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"ray caster: {label} must be numbers, got {type(values).__name__}") from None
 
 
 def bounding_radius_m(obj: WorldObject) -> float:
@@ -80,10 +71,12 @@ class RayCaster:
     """
 
     def __init__(self, world: World, directions: np.ndarray, tile_px: int = TILE_PX) -> None:
-        check_objects(world.objects)
-        directions = np.asarray(directions, float)
-        if directions.ndim != 3 or directions.shape[-1] != 3:
-            raise ConfigError(f"ray caster: directions must have shape (H, W, 3), got {directions.shape}")
+        if not isinstance(world, World):
+            raise ConfigError(f"ray caster: expected a World (which checks its objects), got {type(world).__name__}")
+        directions = _floats("directions", directions)
+        if directions.ndim != 3 or directions.shape[-1] != 3 or not np.isfinite(directions).all():
+            raise ConfigError(f"ray caster: directions must be finite numbers of shape (H, W, 3), got shape "
+                              f"{directions.shape}")
         self.appearance = world.appearance
         self.objects = tuple(world.objects)
         self.height_px, self.width_px = directions.shape[:2]
@@ -95,7 +88,7 @@ class RayCaster:
         for k, obj in enumerate(self.objects):
             self._sizes[k, :len(obj.size_m)] = obj.size_m
         shapes = np.array([o.shape for o in self.objects])
-        self._by_shape = {shape: np.flatnonzero(shapes == shape) for shape in _SIZES if (shapes == shape).any()}
+        self._by_shape = {shape: np.flatnonzero(shapes == shape) for shape in OBJECT_SIZES if (shapes == shape).any()}
         look = self.appearance
         fixed = [look.sky_rgb, look.ground_rgb, look.checker_rgb]
         self._palette = to_uint8(np.array(fixed + [o.rgba[:3] for o in self.objects], float))
@@ -125,12 +118,18 @@ class RayCaster:
     def render(self, eyes_m: np.ndarray, rotations: np.ndarray, scene_yaw_rad: float = 0.0) -> np.ndarray:
         """uint8 RGB images (N, H, W, 3) seen from ``eyes_m`` (N, 3) with camera frames ``rotations``
         (N, 3, 3) (columns: the camera's x, y, z axes in the world), objects turned by ``scene_yaw_rad``."""
-        eyes_m = np.asarray(eyes_m, float).reshape(-1, 3)
-        rotations = np.asarray(rotations, float).reshape(-1, 3, 3)
+        eyes_m, rotations = _floats("eyes_m", eyes_m), _floats("rotations", rotations)
+        if eyes_m.size % 3 or rotations.size % 9:
+            raise ConfigError(f"ray caster: eyes_m must be (N, 3) and rotations (N, 3, 3), got shapes {eyes_m.shape} "
+                              f"and {rotations.shape}")
+        eyes_m, rotations = eyes_m.reshape(-1, 3), rotations.reshape(-1, 3, 3)
         if eyes_m.shape[0] != rotations.shape[0]:
             raise ConfigError(f"ray caster: {eyes_m.shape[0]} eyes but {rotations.shape[0]} rotations")
-        if not (np.isfinite(eyes_m).all() and np.isfinite(rotations).all() and np.isfinite(scene_yaw_rad)):
+        yaw = _floats("scene_yaw_rad", scene_yaw_rad)
+        if not (np.isfinite(eyes_m).all() and np.isfinite(rotations).all() and yaw.size == 1
+                and np.isfinite(yaw).all()):
             raise ConfigError("ray caster: eye positions, rotations and the scene yaw must be finite")
+        scene_yaw_rad = float(yaw.reshape(()))
         n, pixels = eyes_m.shape[0], self._rays.shape[0]
         image = np.empty((n, pixels, 3), np.uint8)
         chunk = max(1, MAX_RAYS_PER_CHUNK // pixels)
@@ -213,7 +212,7 @@ class RayCaster:
         flat = agent[:, None] * self._rays.shape[0] + self._tile_pixels[tile]  # (m, K)
         direction = tuple(component[flat] for component in local)
         origin = tuple((eyes_local[agent, i] - self._centres[k, i])[:, None] for i in range(3))
-        size = [self._sizes[k, i, None] for i in range(_SIZES[shape])]
+        size = [self._sizes[k, i, None] for i in range(OBJECT_SIZES[shape])]
         t = _INTERSECT[shape](origin, direction, size)
         hit = np.isfinite(t)
         flat, t, owner = flat[hit], t[hit], np.broadcast_to((_FIRST_OBJECT + k)[:, None], hit.shape)[hit]

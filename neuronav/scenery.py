@@ -20,9 +20,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from neuronav.errors import ConfigError
+from neuronav.errors import ConfigError, real_or_nan
 from neuronav.vision import LUMA_WEIGHTS
-from neuronav.world import Appearance, Ground, World, WorldObject
+from neuronav.world import MAX_LENGTH_M, Appearance, Ground, World, WorldObject
 
 LANDMARK_RGBA = (0.0, 0.0, 0.0, 1.0)
 # Every part of a tree is at least this light in grey (BT.601): far above a dark-landmark threshold
@@ -31,6 +31,12 @@ TREE_GREY_MIN = 0.25
 _TRUNK_RGB = ((0.50, 0.38, 0.26), (0.56, 0.45, 0.33), (0.46, 0.40, 0.34))
 _CROWN_RGB = ((0.30, 0.55, 0.25), (0.42, 0.62, 0.30), (0.25, 0.48, 0.28), (0.50, 0.60, 0.32))
 CROWNS = ("cone", "sphere")
+# The most trees a forest holds (each placement is checked against every placed trunk: a forest of
+# MAX_TREES takes seconds; the scenarios use dozens).
+MAX_TREES = 2000
+# Draws before a forest that does not fit is refused (about 3 s of drawing).
+MAX_FOREST_ATTEMPTS = 100_000
+
 
 
 def vision_appearance() -> Appearance:
@@ -42,12 +48,17 @@ def vision_appearance() -> Appearance:
 
 def landmark(position_m=(0.0, 25.0), radius_m: float = 1.0, height_m: float = 6.0) -> WorldObject:
     """The visual beacon's landmark: a black cylinder of ``radius_m`` and ``height_m`` standing on the
-    ground at ``position_m`` (x, y) (I2Bot §3.3.4, docs/parameters.md §7: r 1 m, h 6 m, 25 m away)."""
-    x, y = (float(v) for v in position_m)
-    if not (np.isfinite([x, y]).all() and radius_m > 0 and height_m > 0):
-        raise ConfigError(f"landmark: needs a finite position and radius_m, height_m > 0, got {position_m}, "
-                          f"{radius_m}, {height_m}")
-    return WorldObject("cylinder", (x, y, height_m / 2.0), (float(radius_m), height_m / 2.0), LANDMARK_RGBA)
+    ground at ``position_m`` (x, y) (I2Bot §3.3.4, docs/parameters.md §7: r 1 m, h 6 m, 25 m away).
+    Every value finite, within :data:`neuronav.world.MAX_LENGTH_M`."""
+    try:
+        x, y = (float(v) for v in np.asarray(position_m, float).reshape(2))
+    except (TypeError, ValueError):
+        x = y = float("nan")
+    radius, height = real_or_nan(radius_m), real_or_nan(height_m)
+    if not (max(abs(x), abs(y)) <= MAX_LENGTH_M and 0 < radius <= MAX_LENGTH_M and 0 < height <= MAX_LENGTH_M):
+        raise ConfigError(f"landmark: needs a finite position (x, y) and radius_m, height_m > 0, got {position_m!r}, "
+                          f"{radius_m!r}, {height_m!r}")
+    return WorldObject("cylinder", (x, y, height / 2.0), (radius, height / 2.0), LANDMARK_RGBA)
 
 
 def forest(count: int, seed: int, inner_radius_m: float = 0.0, outer_radius_m: float = 50.0,
@@ -64,9 +75,9 @@ def forest(count: int, seed: int, inner_radius_m: float = 0.0, outer_radius_m: f
     Parameters
     ----------
     count : int
-        Number of trees (>= 0).
+        Number of trees (0 to :data:`MAX_TREES`).
     seed : int
-        The same seed gives the same forest.
+        The same seed gives the same forest (an int >= 0).
     inner_radius_m, outer_radius_m : float
         The ring the trunks stand in (0 <= inner < outer), about ``centre_m``.
     height_m, trunk_radius_m : (float, float)
@@ -77,17 +88,18 @@ def forest(count: int, seed: int, inner_radius_m: float = 0.0, outer_radius_m: f
     crowns : sequence of str
         Crown shapes to choose from ("cone", "sphere").
     """
-    _check_forest(count, inner_radius_m, outer_radius_m, height_m, trunk_radius_m, clear, crowns)
+    _check_forest(count, seed, inner_radius_m, outer_radius_m, height_m, trunk_radius_m, clear, centre_m, crowns)
     rng = np.random.default_rng(seed)
     zones = np.asarray(clear, float).reshape(-1, 3)
-    placed: list[tuple[float, float, float]] = []  # (x, y, trunk radius)
+    placed = np.empty((count, 3))  # (x, y, trunk radius) of the first `trees` rows
+    trees = 0
     objects: list[WorldObject] = []
     attempts = 0
-    while len(placed) < count:
+    while trees < count:
         attempts += 1
-        if attempts > 1000 * max(count, 1):
+        if attempts > min(1000 * max(count, 1), MAX_FOREST_ATTEMPTS):
             raise ConfigError(f"forest: cannot place {count} trees in the ring {inner_radius_m}–{outer_radius_m} m "
-                              f"outside the clear zones (placed {len(placed)}); widen the ring or clear less")
+                              f"outside the clear zones (placed {trees}); widen the ring or clear less")
         # Uniform over the ring's area: the radius as the square root of a uniform draw in r².
         radius = np.sqrt(rng.uniform(inner_radius_m ** 2, outer_radius_m ** 2))
         angle = rng.uniform(0.0, 2.0 * np.pi)
@@ -100,9 +112,11 @@ def forest(count: int, seed: int, inner_radius_m: float = 0.0, outer_radius_m: f
         reach = max(3.0 * trunk, 0.22 * height) if crown == "cone" else 0.3 * height
         if zones.size and np.any(np.hypot(zones[:, 0] - x, zones[:, 1] - y) < zones[:, 2] + max(reach, trunk)):
             continue
-        if any(np.hypot(px - x, py - y) < pr + trunk for px, py, pr in placed):
+        others = placed[:trees]
+        if np.any(np.hypot(others[:, 0] - x, others[:, 1] - y) < others[:, 2] + trunk):
             continue
-        placed.append((x, y, trunk))
+        placed[trees] = (x, y, trunk)
+        trees += 1
         objects.append(WorldObject("cylinder", (x, y, 0.225 * height), (trunk, 0.225 * height), (*trunk_rgb, 1.0)))
         if crown == "cone":
             objects.append(WorldObject("cone", (x, y, 0.65 * height), (reach, 0.35 * height), (*crown_rgb, 1.0)))
@@ -120,19 +134,39 @@ def _lighter_than_floor(rgb, scale: float) -> tuple[float, float, float]:
     return tuple(float(v) for v in rgb)
 
 
-def _check_forest(count, inner_radius_m, outer_radius_m, height_m, trunk_radius_m, clear, crowns) -> None:
-    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 0:
-        raise ConfigError(f"forest: count must be a whole number >= 0, got {count!r}")
-    if not (np.isfinite([inner_radius_m, outer_radius_m]).all() and 0 <= inner_radius_m < outer_radius_m):
-        raise ConfigError(f"forest: needs 0 <= inner_radius_m < outer_radius_m, got {inner_radius_m}, {outer_radius_m}")
-    for label, (low, high) in (("height_m", height_m), ("trunk_radius_m", trunk_radius_m)):
-        if not (np.isfinite([low, high]).all() and 0 < low <= high):
-            raise ConfigError(f"forest: {label} must be a range (low, high) with 0 < low <= high, got {(low, high)}")
-    zones = np.asarray(clear, float)
+def _pair(value) -> tuple[float, float]:
+    """Two numbers, or (NaN, NaN) when ``value`` is not two real numbers (refused by the caller)."""
+    try:
+        low, high = (float(v) for v in np.asarray(value, float).reshape(2))
+    except (TypeError, ValueError):
+        return float("nan"), float("nan")
+    return low, high
+
+
+def _check_forest(count, seed, inner_radius_m, outer_radius_m, height_m, trunk_radius_m, clear, centre_m,
+                  crowns) -> None:
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or not 0 <= count <= MAX_TREES:
+        raise ConfigError(f"forest: count must be a whole number in [0, {MAX_TREES}], got {count!r}")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ConfigError(f"forest: seed must be an int >= 0, got {seed!r}")
+    inner, outer = real_or_nan(inner_radius_m), real_or_nan(outer_radius_m)
+    if not 0 <= inner < outer <= MAX_LENGTH_M:
+        raise ConfigError(f"forest: needs 0 <= inner_radius_m < outer_radius_m <= {MAX_LENGTH_M:g}, got "
+                          f"{inner_radius_m!r}, {outer_radius_m!r}")
+    for label, (low, high) in (("height_m", _pair(height_m)), ("trunk_radius_m", _pair(trunk_radius_m))):
+        if not 0 < low <= high <= MAX_LENGTH_M:
+            raise ConfigError(f"forest: {label} must be a range (low, high) with 0 < low <= high <= {MAX_LENGTH_M:g}, "
+                              f"got {height_m if label == 'height_m' else trunk_radius_m!r}")
+    if not max(map(abs, _pair(centre_m))) <= MAX_LENGTH_M:
+        raise ConfigError(f"forest: centre_m must be 2 finite numbers (x, y) m, got {centre_m!r}")
+    try:
+        zones = np.asarray(clear, float)
+    except (TypeError, ValueError):
+        zones = np.full((1, 1), np.nan)
     if zones.size and (zones.ndim != 2 or zones.shape[1] != 3 or not np.isfinite(zones).all()
                        or zones[:, 2].min() < 0):
         raise ConfigError(f"forest: clear must be a list of (x, y, radius_m) with radius_m >= 0, got {clear!r}")
-    if not crowns or any(c not in CROWNS for c in crowns):
+    if isinstance(crowns, str) or not crowns or any(c not in CROWNS for c in crowns):
         raise ConfigError(f"forest: crowns must be chosen among {', '.join(CROWNS)}, got {crowns!r}")
 
 

@@ -53,8 +53,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neuronav.errors import ConfigError
-from neuronav.odour import rasterise
+from neuronav.errors import ConfigError, real_or_nan
+from neuronav.odour import MAX_COORD_M, rasterise
 from neuronav.vision import to_uint8
 
 TRAIL_RGB = (0.35, 0.22, 0.10)
@@ -67,6 +67,9 @@ PIXEL_M = 0.02
 
 MAX_SIDE_PX = 2048
 """The most pixels a side of the floor image holds (pixels grow beyond :data:`PIXEL_M` to keep to it)."""
+
+MAX_SIDE_PX_LIMIT = 16384
+"""The largest ``max_side_px`` :func:`build_trail_floor` accepts (a 16384² RGB image: 805 MB)."""
 
 MARGIN_M = 0.1
 """Plain ground drawn around the trails' outer edges inside the rectangle, metres."""
@@ -169,9 +172,10 @@ def build_trail_floor(trails, appearance, pixel_m: float = PIXEL_M, margin_m: fl
     appearance : neuronav.world.Appearance
         The ground's look under and around the trails.
     pixel_m, margin_m : float
-        The pixel side and the plain margin around the trails, metres (> 0 and >= 0).
+        The pixel side and the plain margin around the trails, metres (> 0 and >= 0, finite, at most
+        :data:`neuronav.odour.MAX_COORD_M`).
     max_side_px : int
-        The most pixels a side may hold.
+        The most pixels a side may hold (2 to :data:`MAX_SIDE_PX_LIMIT`).
 
     Returns
     -------
@@ -181,10 +185,13 @@ def build_trail_floor(trails, appearance, pixel_m: float = PIXEL_M, margin_m: fl
     trails = tuple(trails)
     if not trails:
         return None
-    if not (np.isfinite(pixel_m) and pixel_m > 0 and np.isfinite(margin_m) and margin_m >= 0):
-        raise ConfigError(f"trail floor: pixel_m must be > 0 and margin_m >= 0, got {pixel_m!r}, {margin_m!r}")
-    if isinstance(max_side_px, bool) or not isinstance(max_side_px, int | np.integer) or max_side_px < 2:
-        raise ConfigError(f"trail floor: max_side_px must be an integer >= 2, got {max_side_px!r}")
+    if not (0 < real_or_nan(pixel_m) <= MAX_COORD_M and 0 <= real_or_nan(margin_m) <= MAX_COORD_M):
+        raise ConfigError(f"trail floor: pixel_m must be > 0 and margin_m >= 0 (finite metres), got {pixel_m!r}, "
+                          f"{margin_m!r}")
+    if isinstance(max_side_px, bool) or not isinstance(max_side_px, int | np.integer) \
+            or not 2 <= max_side_px <= MAX_SIDE_PX_LIMIT:
+        raise ConfigError(f"trail floor: max_side_px must be an integer in [2, {MAX_SIDE_PX_LIMIT}], "
+                          f"got {max_side_px!r}")
     boxes = np.array([trail_extent_m(index, trail) for index, trail in enumerate(trails)])  # (T, 4)
     low = boxes[:, [0, 2]].min(axis=0) - margin_m
     high = boxes[:, [1, 3]].max(axis=0) + margin_m
@@ -219,6 +226,7 @@ def build_trail_floor(trails, appearance, pixel_m: float = PIXEL_M, margin_m: fl
     image.setflags(write=False)
     concentration.setflags(write=False)
     return TrailFloor(image, concentration, (float(x0), float(x1)), (float(y0), float(y1)))
+
 
 
 def _grid(low: np.ndarray, high: np.ndarray, pixel_m: float, max_side_px: int,

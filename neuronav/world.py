@@ -14,11 +14,22 @@ from functools import cached_property
 import numpy as np
 
 from neuronav.chemistry import OdourScene
-from neuronav.errors import ConfigError
+from neuronav.errors import ConfigError, real_or_nan
 
 GROUND_KINDS = ("flat", "uneven", "wall")
 OBJECT_SHAPES = ("box", "cylinder", "sphere", "cone")
 POINT_MODES = ("stone", "unicycle")
+# Sizes each object shape takes (see WorldObject).
+OBJECT_SIZES = {"box": 3, "cylinder": 2, "cone": 2, "sphere": 1}
+# Lengths (positions, sizes, ground extents) within ±MAX_LENGTH_M: a 2000 km world, far beyond any
+# scene, and small enough that no engine's squared distance overflows.
+MAX_LENGTH_M = 1e6
+# The most point agents in one batch: their state (a few float64 per agent) stays under 1 GB.
+MAX_POINT_AGENTS = 10 ** 7
+# The most heightfield samples per side (1025² float64: 8 MB; 2 cm apart on a 20 m field). With
+# feature_m <= size_m / 4 the smoothing kernel spans at most 2 · 4 · 256 cells: a few seconds at most.
+MAX_GROUND_CELLS = 1025
+
 
 
 @dataclass(frozen=True)
@@ -29,6 +40,11 @@ class Ground:
     ``size_m``, smooth random bumps with standard deviation ``roughness_m`` and correlation length
     ``feature_m``, the same for every backend (generated here from ``seed``). ``wall``: flat ground
     and a vertical wall facing -x at x = ``wall_distance_m``, spanning y, ``wall_height_m`` high.
+
+    Every length is finite: ``roughness_m`` >= 0, the others > 0, all at most
+    :data:`MAX_LENGTH_M`; on uneven ground ``feature_m`` at most ``size_m / 4`` (a longer correlation
+    length is a tilted plane, not bumps); ``cells`` in [3, :data:`MAX_GROUND_CELLS`]; ``seed`` an int
+    >= 0; ``friction`` in (0, 100].
     """
 
     kind: str = "flat"
@@ -44,13 +60,21 @@ class Ground:
     def __post_init__(self) -> None:
         if self.kind not in GROUND_KINDS:
             raise ConfigError(f"ground kind {self.kind!r} is unknown; allowed: {', '.join(GROUND_KINDS)}")
-        if self.roughness_m < 0:
-            raise ConfigError(f"ground roughness_m must be >= 0, got {self.roughness_m}")
-        for label in ("size_m", "feature_m", "wall_distance_m", "wall_height_m", "friction"):
-            if not getattr(self, label) > 0:
-                raise ConfigError(f"ground {label} must be > 0, got {getattr(self, label)}")
-        if not isinstance(self.cells, int) or self.cells < 3:
-            raise ConfigError(f"ground cells must be an int >= 3, got {self.cells!r}")
+        if not 0 <= real_or_nan(self.roughness_m) <= MAX_LENGTH_M:
+            raise ConfigError(f"ground roughness_m must be a finite number >= 0 (m, up to {MAX_LENGTH_M:g}), "
+                              f"got {self.roughness_m!r}")
+        for label, high in (("size_m", MAX_LENGTH_M), ("feature_m", MAX_LENGTH_M), ("wall_distance_m", MAX_LENGTH_M),
+                            ("wall_height_m", MAX_LENGTH_M), ("friction", 100.0)):
+            if not 0 < real_or_nan(getattr(self, label)) <= high:
+                raise ConfigError(f"ground {label} must be a finite number > 0 (up to {high:g}), "
+                                  f"got {getattr(self, label)!r}")
+        if self.kind == "uneven" and not self.feature_m <= self.size_m / 4:
+            raise ConfigError(f"ground feature_m must be at most size_m / 4 ({self.size_m / 4:g}) on uneven ground, "
+                              f"got {self.feature_m!r}")
+        if isinstance(self.cells, bool) or not isinstance(self.cells, int) or not 3 <= self.cells <= MAX_GROUND_CELLS:
+            raise ConfigError(f"ground cells must be an int in [3, {MAX_GROUND_CELLS}], got {self.cells!r}")
+        if isinstance(self.seed, bool) or not isinstance(self.seed, int | np.integer) or self.seed < 0:
+            raise ConfigError(f"ground seed must be an int >= 0, got {self.seed!r}")
 
     def heights_m(self) -> np.ndarray:
         """Terrain heights, shape (cells, cells): row i is y, column j is x, both from -size/2 to size/2.
@@ -86,11 +110,17 @@ class Ground:
     def height_at(self, x_m, y_m):
         """Terrain height (m) under (x, y), bilinear between heightfield samples; the one terrain lookup.
 
-        ``x_m`` and ``y_m`` are numbers (a float comes back) or arrays of one shape (an array of
-        it). Outside the field the edge samples continue.
+        ``x_m`` and ``y_m`` are finite numbers (a float comes back) or arrays of one shape (an array
+        of it). Outside the field the edge samples continue.
         """
         scalar = np.ndim(x_m) == 0 and np.ndim(y_m) == 0
-        x, y = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(y_m, dtype=float))
+        try:
+            x, y = np.broadcast_arrays(np.asarray(x_m, dtype=float), np.asarray(y_m, dtype=float))
+        except (TypeError, ValueError):
+            raise ConfigError(f"ground height_at: x_m and y_m must be numbers or arrays of one shape, got shapes "
+                              f"{np.shape(x_m)} and {np.shape(y_m)}") from None
+        if not (np.isfinite(x).all() and np.isfinite(y).all()):
+            raise ConfigError("ground height_at: x_m and y_m must be finite")
         if self.is_flat:
             heights = np.zeros(x.shape)
         else:
@@ -110,7 +140,8 @@ class WorldObject:
     """A static object: a primitive ``shape`` of ``size_m`` at ``position_m`` with an RGBA colour.
 
     Sizes as for body geoms: box half-extents (3); cylinder and cone (radius, half_height); sphere
-    (radius,). Cylinders and cones stand upright (along z).
+    (radius,). Cylinders and cones stand upright (along z). A :class:`World` checks the rest
+    (:func:`check_objects`), so that every backend refuses the same objects.
     """
 
     shape: str
@@ -121,6 +152,35 @@ class WorldObject:
     def __post_init__(self) -> None:
         if self.shape not in OBJECT_SHAPES:
             raise ConfigError(f"object shape {self.shape!r} is unknown; allowed: {', '.join(OBJECT_SHAPES)}")
+
+
+def check_objects(objects) -> None:
+    """Refuse objects no backend can build: not a WorldObject, the wrong number of sizes, sizes not
+    finite and positive, a position not 3 finite numbers, lengths beyond :data:`MAX_LENGTH_M`, or
+    an RGBA colour not 4 numbers in [0, 1]."""
+    for index, obj in enumerate(objects):
+        if not isinstance(obj, WorldObject):
+            raise ConfigError(f"world object {index}: expected a WorldObject, got {type(obj).__name__}")
+        size = _numbers(obj.size_m)
+        expected = OBJECT_SIZES[obj.shape]
+        if size.size != expected or not (np.isfinite(size).all() and 0 < size.min() and size.max() <= MAX_LENGTH_M):
+            raise ConfigError(f"world object {index} ({obj.shape}): size_m needs {expected} positive values "
+                              f"(up to {MAX_LENGTH_M:g} m), got {obj.size_m!r}")
+        position = _numbers(obj.position_m)
+        if position.size != 3 or not (np.isfinite(position).all() and np.abs(position).max() <= MAX_LENGTH_M):
+            raise ConfigError(f"world object {index} ({obj.shape}): position_m needs 3 finite values "
+                              f"(within ±{MAX_LENGTH_M:g} m), got {obj.position_m!r}")
+        rgba = _numbers(obj.rgba)
+        if rgba.size != 4 or not (np.isfinite(rgba).all() and rgba.min() >= 0 and rgba.max() <= 1):
+            raise ConfigError(f"world object {index} ({obj.shape}): rgba needs 4 numbers in [0, 1], got {obj.rgba!r}")
+
+
+def _numbers(values) -> np.ndarray:
+    """``values`` as a flat float array, or one NaN when they are not numbers (refused by the caller)."""
+    try:
+        return np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        return np.full(1, np.nan)
 
 
 GROUND_TEXTURES = ("checker", "plain")
@@ -159,7 +219,7 @@ class Appearance:
         if self.ground_texture not in GROUND_TEXTURES:
             raise ConfigError(f"appearance ground_texture {self.ground_texture!r} is unknown; allowed: "
                               f"{', '.join(GROUND_TEXTURES)}")
-        if not (np.isfinite(self.checker_m) and self.checker_m > 0):
+        if not 0 < real_or_nan(self.checker_m) <= MAX_LENGTH_M:
             raise ConfigError(f"appearance checker_m must be > 0, got {self.checker_m}")
 
 
@@ -186,8 +246,15 @@ class World:
     odour: OdourScene = field(default_factory=OdourScene)
 
     def __post_init__(self) -> None:
-        if not self.adhesion_n >= 0:
-            raise ConfigError(f"world adhesion_n must be >= 0, got {self.adhesion_n}")
+        if not isinstance(self.ground, Ground):
+            raise ConfigError(f"world ground must be a Ground, got {type(self.ground).__name__}")
+        objects = tuple(self.objects) if isinstance(self.objects, list | tuple) else None
+        if objects is None:
+            raise ConfigError(f"world objects must be a tuple of WorldObject, got {type(self.objects).__name__}")
+        check_objects(objects)
+        object.__setattr__(self, "objects", objects)
+        if not 0 <= real_or_nan(self.adhesion_n) < np.inf:
+            raise ConfigError(f"world adhesion_n must be a finite number >= 0, got {self.adhesion_n!r}")
         if not isinstance(self.odour, OdourScene):
             raise ConfigError(f"world odour must be a neuronav.chemistry.OdourScene, got {type(self.odour).__name__}")
         if not isinstance(self.appearance, Appearance):
@@ -226,16 +293,16 @@ class PointAgents:
     Parameters
     ----------
     count : int
-        Number of agents N.
+        Number of agents N (1 to :data:`MAX_POINT_AGENTS`).
     mode : str
         ``stone``: Stone et al. 2017's agent — each step ``heading += rotation`` and
         ``velocity = (velocity + acceleration * (sin h, cos h)) * (1 - drag)``, in distance units
         per step. ``unicycle``: forward speed and turn rate from the locomotion command
         (``turn``, ``stride``) through a calibration table, in m and s.
     drag : float
-        Fraction of the velocity lost each step (``stone`` mode).
+        Fraction of the velocity lost each step (``stone`` mode), in [0, 1).
     mass_kg : float
-        Mass used by ``apply_force``.
+        Mass used by ``apply_force`` (finite, > 0).
     cameras : tuple of Camera
         Cameras carried by every agent, placed in the agent's frame (x forward, y left, z up,
         origin on the ground under the agent; ``Camera.segment`` is ignored). The kinematic backend
@@ -252,14 +319,15 @@ class PointAgents:
     antennae: tuple = ()
 
     def __post_init__(self) -> None:
-        if not isinstance(self.count, int) or self.count < 1:
-            raise ConfigError(f"PointAgents count must be a positive int, got {self.count!r}")
+        if isinstance(self.count, bool) or not isinstance(self.count, int) or not 1 <= self.count <= MAX_POINT_AGENTS:
+            raise ConfigError(f"PointAgents count must be a positive int (at most {MAX_POINT_AGENTS}), "
+                              f"got {self.count!r}")
         if self.mode not in POINT_MODES:
             raise ConfigError(f"PointAgents mode {self.mode!r} is unknown; allowed: {', '.join(POINT_MODES)}")
-        if not 0.0 <= self.drag < 1.0:
-            raise ConfigError(f"PointAgents drag must be in [0, 1), got {self.drag}")
-        if not self.mass_kg > 0:
-            raise ConfigError(f"PointAgents mass_kg must be > 0, got {self.mass_kg}")
+        if not 0.0 <= real_or_nan(self.drag) < 1.0:
+            raise ConfigError(f"PointAgents drag must be in [0, 1), got {self.drag!r}")
+        if not 0 < real_or_nan(self.mass_kg) < np.inf:
+            raise ConfigError(f"PointAgents mass_kg must be a finite number > 0, got {self.mass_kg!r}")
         antennae = tuple(self.antennae)
         if not all(isinstance(a, PointAntenna) for a in antennae):
             raise ConfigError("PointAgents antennae must be neuronav.world.PointAntenna instances")

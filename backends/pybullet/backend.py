@@ -87,7 +87,7 @@ import numpy as np
 
 from backends.pybullet.camera import render_flat, render_follow
 from backends.pybullet.engine import EngineOutput, configure_client, pb
-from backends.pybullet.scene import build_ground, build_object, build_vision_world, check_object, place_objects
+from backends.pybullet.scene import build_ground, build_object, build_vision_world, place_objects
 from backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.articulated import ArticulatedBackend, FollowView
 from neuronav.backend import quat_product
@@ -199,9 +199,7 @@ class PybulletBackend(ArticulatedBackend):
         self._choose_substeps()
 
     def _load_engine(self, world: World, body: BodySpec) -> None:
-        # Everything that can reject the input comes before any state changes.
-        for obj in world.objects:
-            check_object(obj)
+        # Everything that can reject the input comes before any state changes (the World checked its objects).
         urdf = body_to_urdf(body, armature_as_inertia=self._armature_as_inertia)
         for site in body.sites:
             if site.kind == "contact" and site.geom:

@@ -29,7 +29,6 @@ import zlib
 import numpy as np
 
 from backends.pybullet.engine import pb
-from neuronav.errors import ConfigError
 from neuronav.trail_floor import TrailFloor, ground_rgb_at, png_bytes, trail_floor
 from neuronav.vision import GROUND_REACH_M, to_uint8
 from neuronav.world import World, WorldObject
@@ -248,12 +247,3 @@ def place_objects(cid: int, handles: list[int], objects, yaw_rad: float) -> None
 def set_friction(cid: int, world: World, handle: int) -> None:
     pb.changeDynamics(handle, -1, lateralFriction=world.ground.friction, restitution=0.0,
                       physicsClientId=cid)
-
-
-def check_object(obj: WorldObject) -> None:
-    expected = {"box": 3, "sphere": 1, "cylinder": 2, "cone": 2}[obj.shape]
-    size = tuple(obj.size_m)
-    if len(size) != expected or not all(np.isfinite(s) and s > 0 for s in size):
-        raise ConfigError(f"world object {obj.shape}: size_m needs {expected} positive numbers, got {size}")
-    if len(obj.position_m) != 3 or not np.isfinite(obj.position_m).all():
-        raise ConfigError(f"world object {obj.shape}: position_m must be 3 finite numbers, got {obj.position_m}")

@@ -32,7 +32,7 @@ import numpy as np
 
 from backends.pybullet.backend import DIVERGED_VELOCITY, GRAVITY_M_S2, PybulletBackend
 from backends.pybullet.engine import EngineOutput, configure_client, pb
-from backends.pybullet.scene import build_ground, build_object, check_object
+from backends.pybullet.scene import build_ground, build_object
 from backends.pybullet.urdf import body_to_urdf
 from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities
 from neuronav.backend import BackendBase, Capabilities, check_seed, quat_product, start_pose
@@ -141,8 +141,6 @@ class PybulletSwarm(BackendBase):
             Not a World, no bodies, not BodySpecs, different joint counts, adhesion, or a bad object.
         """
         bodies = check_swarm_load("pybullet", world, bodies)
-        for obj in world.objects:
-            check_object(obj)
         self.close()
         self._tmpdir = tempfile.TemporaryDirectory(prefix="neuronav_pybullet_swarm_")
         self._urdfs = []
