@@ -69,6 +69,19 @@ def test_a_short_pybullet_swarm_runs_and_reports_every_ant():
     assert np.isfinite(result.timeseries["swarm_position_m"][0, :, :3]).all()
 
 
+@pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
+def test_two_ants_that_bump_into_each_other_report_the_same_contact_time(backend):
+    """Homes 0.94 m apart: the two foraging ants touch (seed 0: MuJoCo 0.176 s, PyBullet 0.704 s of 3.84 s).
+    The CI variant of the sixteen-ant run below, whose claim rests on ``ant_contact_s``."""
+    pytest.importorskip(backend)
+    result, config = short_run(backend, trials=2, ants=2, spacing_m=0.8, outbound_s=3.2, homing_timeout_s=0.64)
+    contact_s = np.array([row["ant_contact_s"] for row in result.trials])
+    assert np.all(contact_s > 0.05), contact_s
+    assert contact_s[0] == contact_s[1]  # a contact between two ants is a contact of both
+    steps = contact_s / 0.008
+    assert np.allclose(steps, np.round(steps)) and np.all(contact_s < 3.2 + 0.64)  # whole 8 ms control steps
+
+
 def test_a_trial_run_alone_gives_the_row_it_has_in_the_whole_swarm():
     whole, _ = short_run("kinematic", trials=3, seed=0)
     alone, _ = short_run("kinematic", trials=1, seed=2)

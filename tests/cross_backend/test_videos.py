@@ -60,5 +60,6 @@ def test_embodied_homing_video_plays_in_real_time(tmp_path):
     command = ["run", "path-integration", "--backend", "mujoco", "--trials", "1", "--video", "--out", str(out)]
     for setting in settings:
         command += ["--set", setting]
-    assert main(command) in (0, 1)  # a 1 cm nest is rarely reached: the trial may count as failed
+    # A 1 cm nest is rarely reached, but a trial that does not reach it still ran: exit 0 (1 is a trial that raised).
+    assert main(command) == 0
     check_video(out, 2.56, 15.625)

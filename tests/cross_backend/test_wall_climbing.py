@@ -43,6 +43,13 @@ def test_touch_rule_climbs_on_pybullet_at_a_moderate_force():
     assert climb("pybullet", 60.0, "touch", duration_s=6.0)["fell"]  # peels off
 
 
+def test_too_much_force_under_the_touch_rule_keeps_pybullets_ant_at_the_foot_of_the_wall():
+    """The CI variant of the slow touch-rule sweep below: at 300 N the swinging legs stay stuck (measured: 0.0 m
+    climbed in 6 s, where 120 N climbs more than 0.5 m in the same time, test above)."""
+    strong = climb("pybullet", 300.0, "touch", duration_s=6.0)
+    assert strong["climb_height_m"] < 0.2, strong
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", BACKENDS)
 def test_climb_against_adhesion_sweep_with_pads_released_in_swing(backend):

@@ -42,6 +42,25 @@ def test_without_phase_noise_the_sweep_is_a_sinusoid():
     np.testing.assert_allclose(offsets, expected, atol=1e-12)
 
 
+@pytest.mark.parametrize("dt_s, steps", [(0.01, 100), (0.05, 40)])
+def test_the_phase_diffuses_with_variance_sigma_squared_times_time(dt_s, steps):
+    """After n steps of dt the phase's deviation from its mean advance 2π n dt / period is a sum of n
+    normal kicks of std σ √dt: its variance is σ² n dt whatever dt (1.0 at dt 0.01 s, 2.0 at 0.05 s;
+    a kick scaled by dt instead of √dt would give σ² n dt² = 0.01 and 0.1)."""
+    sigma, period_s, samples = 1.0, 0.64, 2000
+    sweep = AntennaSweep("moving", period_s=period_s, phase_noise_rad_per_sqrt_s=sigma)
+    drift = np.empty(samples)
+    for seed in range(samples):
+        sweep.reset(seed)
+        start = sweep.phase_rad
+        for _ in range(steps):
+            sweep.step(dt_s)
+        drift[seed] = sweep.phase_rad - start - 2 * np.pi * steps * dt_s / period_s
+    expected = sigma ** 2 * steps * dt_s
+    assert np.mean(drift) == pytest.approx(0.0, abs=4 * np.sqrt(expected / samples))
+    assert np.var(drift) == pytest.approx(expected, rel=4 * np.sqrt(2 / samples))  # chi² tolerance: ±13 %
+
+
 def test_same_seed_same_sweep():
     np.testing.assert_array_equal(_offsets(AntennaSweep("moving", seed=5), 3.0),
                                   _offsets(AntennaSweep("moving", seed=5), 3.0))

@@ -110,6 +110,23 @@ def test_rate_relu_and_logistic_are_exact():
     np.testing.assert_allclose(out["y"], 3.0 / (1 + np.exp(-(2 * x - 1))))
 
 
+@pytest.mark.parametrize("kind", ["rate", "leaky"])
+def test_logistic_population_adds_its_bias_before_the_slope(kind):
+    """A logistic population with a bias b and params slope a, bias c: r = 1 / (1 + exp(-(a (W x + b) - c)))
+    (leaky: its Euler step towards that value, from 0)."""
+    c = Circuit("c")
+    c.add_input("x", 1, ports=[X])
+    options = {"tau_s": 0.02} if kind == "leaky" else {}
+    c.add_population("s", 1, kind=kind, activation="logistic", params={"slope": 2.0, "bias": 1.0}, bias=0.75,
+                     **options)
+    c.connect("x", "s", weights=[[1.5]])
+    sim = c.compile(batch=3, dt_s=0.01)
+    x = np.array([[-2.0], [0.5], [3.0]])
+    sim.step({"x": x})
+    target = 1.0 / (1.0 + np.exp(-(2.0 * (1.5 * x + 0.75) - 1.0)))
+    np.testing.assert_allclose(sim.rates("s"), target * (0.5 if kind == "leaky" else 1.0), rtol=1e-12)
+
+
 def test_leaky_population_follows_euler_solution():
     dt_s, tau_s = 1e-3, 0.02
     c = Circuit("c")
@@ -184,6 +201,33 @@ def test_dense_equals_sparse():
     assert sparse.sparse and not dense.sparse
     np.testing.assert_allclose(run(dense, inputs), run(sparse, inputs), rtol=0, atol=1e-12)
     np.testing.assert_allclose(dense.memory("CPU4"), sparse.memory("CPU4"), atol=1e-12)
+
+
+@pytest.mark.parametrize("shift", [1, -2])
+def test_roll_moves_the_bump_by_shift_cells(shift):
+    """Rule ``roll``: target cell j reads source cell (j - shift) mod n, so a bump at cell 0 lands on
+    cell ``shift mod n``."""
+    n = 6
+    c = Circuit("c")
+    c.add_input("x", n, ports=[SensorSpec("x", (n,))])
+    c.add_population("r", n, activation="identity")
+    c.connect("x", "r", rule="roll", rule_params={"shift": shift})
+    sim = c.compile()
+    bump = np.zeros((1, n))
+    bump[0, 0] = 1.0
+    sim.step({"x": bump})
+    np.testing.assert_array_equal(sim.rates("r"), np.roll(bump, shift, axis=1))
+    assert sim.rates("r")[0, shift % n] == 1.0
+
+
+def test_one_hot_codes_the_rounded_index_plus_offset_clipped_into_range():
+    """Encoder ``one_hot``: the cell round(index) + offset is on, clipped into [0, size - 1]."""
+    c = Circuit("c")
+    c.add_input("shift", 5, ports=[SensorSpec("shift", (1,))], encoder="one_hot",
+                encoder_params={"size": 5, "offset": 2})
+    sim = c.compile(batch=5)
+    sim.step({"shift": np.array([[-0.4], [0.6], [1.4], [-7.0], [9.0]])})
+    np.testing.assert_array_equal(sim.rates("shift"), np.eye(5)[[2, 3, 3, 0, 4]])
 
 
 def test_large_sparse_circuit_is_stored_sparse_by_default():
@@ -286,6 +330,28 @@ def test_table_noise_is_standard_normal_and_per_agent():
     np.testing.assert_array_equal(np.array(first), samples[:5, 1])
     with pytest.raises(CircuitError, match="noise_method 'pink' is unknown"):
         c.compile(noise_method="pink")
+
+
+@pytest.mark.parametrize("noise_method, batch", [("gaussian", 3), ("gaussian", 40), ("table", 3)])
+@pytest.mark.parametrize("stds", [(0.3, 0.3), (0.5, 2.0)], ids=["one level", "two levels"])
+def test_each_population_gets_noise_of_its_own_std(noise_method, batch, stds):
+    """Rates with no input are the noise itself: each population's spread is its own noise_std, for one
+    level shared by every population (scaled once per block) and for two (scaled population by
+    population), in every noise layout (small and large gaussian batches, table)."""
+    c = Circuit("levels")
+    c.add_population("a", 8, activation="identity", noise_std=stds[0])
+    c.add_population("b", 5, activation="identity", noise_std=stds[1])  # 5 cells: packed after whole words
+    sim = c.compile(batch=batch, seed=2, noise_method=noise_method)
+    steps = 6000 // batch
+    rates = {"a": [], "b": []}
+    for _ in range(steps):
+        sim.step({})
+        for name in rates:
+            rates[name].append(sim.rates(name))
+    for name, std in zip(rates, stds):
+        values = np.ravel(rates[name])
+        assert abs(values.mean()) < 4 * std / np.sqrt(values.size)
+        assert values.std() == pytest.approx(std, rel=4 / np.sqrt(2 * values.size))
 
 
 def test_leaky_step_longer_than_tau_is_refused():

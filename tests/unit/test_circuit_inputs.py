@@ -36,7 +36,13 @@ def test_input_check_can_be_switched_off_explicitly():
 
 def test_huge_finite_inputs_pass_the_finite_check():
     sim = stone2017().compile(batch=2)
-    sim.step({"heading": np.zeros((2, 1)), "velocity": np.full((2, 2), 1e308)})  # their sum overflows
+    huge = np.full((2, 2), 1e308)  # finite, but their sum overflows to inf
+    out = sim.step({"heading": np.zeros((2, 1)), "velocity": huge})
+    assert sim.steps == 1 and out["motor"].shape == (2, 1) and np.isfinite(out["motor"]).all() and sim.all_finite()
+    huge[1, 0] = np.inf  # the same overflowing sum, now with a value that is not finite
+    with pytest.raises(PortError, match="port 'velocity' needs finite values, got inf"):
+        sim.step({"heading": np.zeros((2, 1)), "velocity": huge})
+    assert sim.steps == 1
 
 
 def test_ranged_port_refuses_values_outside_and_nan():

@@ -111,6 +111,20 @@ def test_novelty_reads_agent_zero_and_leaves_the_weights_as_they_were():
     np.testing.assert_array_equal(sim.weights("KC->MBON"), weights)
 
 
+def test_the_learning_port_learns_only_above_one_half():
+    """The port reads "> 0.5: learn": at exactly 0.5 a view stays novel, just above it is stored."""
+    sim = mushroom_body(n_pn=12, n_kc=50, inputs_per_kc=3, kc_threshold=0.5).compile(batch=3)
+    view = pn_code(np.random.default_rng(2).normal(size=(1, 12)))
+    before = novelty(sim, view)[0]
+    assert before > 0
+    gates = np.array([[0.5], [np.nextafter(0.5, 1.0)], [1.0]])
+    sim.step({"pn": np.repeat(view, 3, axis=0), "learning": gates})
+    weights = sim.weights("KC->MBON")
+    np.testing.assert_array_equal(weights[0], 1.0)  # at 0.5: nothing learnt
+    np.testing.assert_array_equal(weights[1], weights[2])  # just above: as learnt as with the gate at 1
+    assert novelty(sim, view)[0] == before and np.count_nonzero(weights[1] == 0.0) == before
+
+
 @pytest.mark.parametrize("options, message", [
     (dict(n_kc=0), "n_kc must be an int >= 1"),
     (dict(inputs_per_kc=100), "cannot exceed n_pn"),

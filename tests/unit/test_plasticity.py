@@ -84,6 +84,22 @@ def test_the_gate_off_changes_nothing():
     np.testing.assert_array_equal(sim.weights("PN->OUT"), np.repeat(initial[None], 2, axis=0))
 
 
+def test_depression_needs_gate_and_rate_strictly_above_their_thresholds():
+    """OneShotDepression learns where gate > gate_threshold, from cells with rate > active_threshold:
+    a value exactly at either threshold leaves the weight as it was."""
+    c = Circuit("thresholds")
+    c.add_input("X", 3, ports=[SensorSpec("x", (3,))])
+    c.add_input("g", 1, ports=[SensorSpec("gate", (1,))])
+    c.add_output("Y", 1, MotorSpec("y", (1,)))
+    c.connect("X", "Y", weights=np.ones((1, 3)),
+              learning=OneShotDepression(rate=0.25, active_threshold=0.3, gate_threshold=0.2, gate="g"))
+    sim = c.compile(batch=3)
+    x = np.repeat([[0.3, np.nextafter(0.3, 1.0), 0.0]], 3, axis=0)
+    gates = np.array([[0.2], [np.nextafter(0.2, 1.0)], [np.nextafter(0.2, 0.0)]])
+    sim.step({"x": x, "gate": gates})
+    np.testing.assert_array_equal(sim.weights("X->Y")[:, 0], [[1.0, 1.0, 1.0], [1.0, 0.75, 1.0], [1.0, 1.0, 1.0]])
+
+
 def test_batched_agents_learn_independently():
     sim = mb_circuit().compile(batch=2)
     x = np.repeat(view(0, 1, 2), 2, axis=0)

@@ -66,6 +66,31 @@ def test_puff_centres_drift_with_the_wind_and_spread_as_sigma_squared_age():
     assert np.var(scaled) == pytest.approx(sigma ** 2, rel=4 * np.sqrt(2 / old.sum()))
 
 
+def test_puffs_drift_along_a_crosswind_by_its_velocity_times_their_age():
+    """Wind (u, v) with both components non-zero: every puff sits at source + (u, v) · age, exactly
+    without spread; the puffs' own noise spreads both axes by sigma² · age about that drift."""
+    u, v = 0.6, -0.8
+    crosswind = WindConfig(mean_mps=(u, v), gain=0.0)
+    source = OdourSource((0.0, 0.0, 0.1), 400.0)
+    plume = Plume(PlumeConfig(sources=(source,), wind=crosswind, puff_spread_m_per_sqrt_s=0.0, **BIG_ARENA), seed=3)
+    plume.advance(0.01, 300)
+    puffs = plume.puffs
+    assert puffs.age_s.max() > 2.5
+    np.testing.assert_allclose(puffs.position_m[:, 0], u * puffs.age_s, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(puffs.position_m[:, 1], v * puffs.age_s, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(puffs.position_m[:, 2], 0.1)
+    sigma = 0.3
+    plume = Plume(PlumeConfig(sources=(source,), wind=crosswind, puff_spread_m_per_sqrt_s=sigma, **BIG_ARENA), seed=4)
+    plume.advance(0.01, 300)
+    puffs = plume.puffs
+    old = puffs.age_s > 2.0  # ~400 puffs aged 2-3 s
+    age = puffs.age_s[old]
+    for axis, speed in ((0, u), (1, v)):
+        scaled = (puffs.position_m[old, axis] - speed * age) / np.sqrt(age)  # sigma times a standard normal
+        assert np.mean(scaled) == pytest.approx(0.0, abs=4 * sigma / np.sqrt(old.sum()))
+        assert np.var(scaled) == pytest.approx(sigma ** 2, rel=4 * np.sqrt(2 / old.sum()))
+
+
 def test_coloured_noise_reaches_its_stationary_variance():
     zeta, omega, gain = 0.1, 0.2, 2.0
     target = gain ** 2 * omega / (4 * zeta)  # 2 (m/s)²
@@ -89,6 +114,17 @@ def test_coloured_noise_reaches_its_stationary_variance():
 def test_stationary_start_draws_the_stationary_variance():
     noise = ColouredNoise(0.1, 0.2, 2.0, size=20000, rng=np.random.default_rng(8), start_stationary=True)
     assert noise.value.var() == pytest.approx(2.0, rel=0.05)
+
+
+def test_stationary_start_draws_the_rate_with_omega_squared_times_the_variance():
+    """(n, n') start uncorrelated, var n = G² ω / (4 ζ) and var n' = ω² var n (the stationary state)."""
+    zeta, omega, gain, size = 0.1, 0.5, 2.0, 20000
+    noise = ColouredNoise(zeta, omega, gain, size, np.random.default_rng(6), start_stationary=True)
+    variance = gain ** 2 * omega / (4 * zeta)
+    tolerance = 4 * np.sqrt(2 / size)
+    assert np.var(noise.value) == pytest.approx(variance, rel=tolerance)
+    assert np.var(noise.rate) == pytest.approx(omega ** 2 * variance, rel=tolerance)
+    assert abs(np.corrcoef(noise.value, noise.rate)[0, 1]) < 4 / np.sqrt(size)
 
 
 def test_one_puff_integrates_to_its_amount():
@@ -132,6 +168,37 @@ def test_puffs_leaving_the_arena_are_dropped_and_the_count_stays_bounded():
     assert plume.dropped > 0 and plume.released == plume.dropped + plume.n_puffs
     # steady state: about 60/s × 0.9 s of travel ≈ 54 puffs alive, never growing with time
     assert max(counts[5:]) < 120 and abs(np.mean(counts[5:15]) - np.mean(counts[20:])) < 15
+
+
+@pytest.mark.parametrize("wind_mps", [(1.0, 0.0), (-1.0, 0.0), (0.0, 1.0), (0.0, -1.0)])
+def test_puffs_are_dropped_at_whichever_edge_they_leave_by(wind_mps):
+    """A source in the middle of a 2 × 2 m arena, a steady 1 m/s wind toward one edge: after 3 s puffs
+    have left through that edge, and every live puff is inside the arena (so younger than 1 s + a step)."""
+    config = PlumeConfig(sources=(OdourSource((1.0, 0.0, 0.0), 60.0),), wind=WindConfig(mean_mps=wind_mps, gain=0.0),
+                         puff_spread_m_per_sqrt_s=0.0, arena_x_m=(0.0, 2.0), arena_y_m=(-1.0, 1.0))
+    plume = Plume(config, seed=1)
+    plume.advance(0.01, 300)
+    pos = plume.puffs.position_m
+    assert plume.dropped > 100 and plume.released == plume.dropped + plume.n_puffs
+    assert np.all((pos[:, 0] >= 0.0) & (pos[:, 0] <= 2.0) & (pos[:, 1] >= -1.0) & (pos[:, 1] <= 1.0))
+    assert plume.puffs.age_s.max() <= 1.0 + 0.01 + 1e-9
+
+
+def test_a_planar_plume_reads_the_same_at_every_height():
+    """planar=True (the default): a query's height is ignored, a 3-D point reads as its (x, y); not planar,
+    a puff seen from above reads less."""
+    sources = (OdourSource((1.0, 0.0, 0.0), 60.0),)
+    planar = Plume(PlumeConfig(sources=sources, wind=STEADY), seed=2)
+    solid = Plume(PlumeConfig(sources=sources, wind=STEADY, planar=False), seed=2)
+    for plume in (planar, solid):
+        plume.advance(0.01, 200)
+    xy = np.array([[1.5, 0.0], [2.0, 0.05], [2.5, -0.1]])
+    ground, raised = np.c_[xy, np.zeros(3)], np.c_[xy, np.full(3, 0.05)]
+    reading = planar.concentration_at(xy)
+    assert np.all(reading > 0)
+    np.testing.assert_array_equal(planar.concentration_at(ground), reading)
+    np.testing.assert_array_equal(planar.concentration_at(raised), reading)
+    assert np.all(solid.concentration_at(raised) < solid.concentration_at(ground))
 
 
 def test_max_puffs_bounds_the_count_and_suppresses_releases():

@@ -60,6 +60,31 @@ def test_compiled_circuit_agent_is_independent_of_its_batch(options):
         assert np.array_equal(whole[:, agent:agent + 1], alone), f"agent {agent} alone differs"
 
 
+WIDE = 1000  # stone2017's noise blocks shrink below 256 steps above 178 agents (float64), 356 (float32)
+
+
+@pytest.mark.parametrize("options", [
+    {"dtype": "float64", "noise_method": "gaussian"},
+    {"dtype": "float32", "noise_method": "table"},
+], ids=["float64-gaussian", "float32-table"])
+def test_agent_alone_equals_the_same_agent_in_a_batch_of_1000(options):
+    """At 1000 agents each noise block holds fewer steps (45 or 91) than an agent alone draws (256):
+    over 300 steps (several blocks either way) the agent's noise, and so its numbers, stay the same."""
+    steps, agents = 300, (0, 517, WIDE - 1)
+    heading, velocity = _inputs(WIDE, steps)
+    wide = stone2017(noise=0.1).compile(batch=WIDE, seeds=list(range(100, 100 + WIDE)), **options)
+    assert wide._noise_block_steps < 256  # the case the 50-agent tests above never reach
+    picked = []
+    for t in range(steps):
+        motor = wide.step({"heading": heading[t], "velocity": velocity[t]})["motor"]
+        values = np.concatenate([motor, wide.memory("CPU4"), *(wide.rates(n) for n in wide.order)], axis=1)
+        picked.append(values[list(agents)])
+    picked = np.array(picked)  # (steps, agents, values)
+    for i, agent in enumerate(agents):
+        alone = _run_circuit(slice(agent, agent + 1), heading, velocity, **options)
+        assert np.array_equal(picked[:, i:i + 1], alone), f"agent {agent} alone differs from agent {agent} of {WIDE}"
+
+
 @pytest.mark.parametrize("batch", [2, 5, 40])
 def test_leaky_ring_attractor_agent_is_independent_of_its_batch(batch):
     n = ring_attractor().population("E").size

@@ -107,6 +107,15 @@ def test_klinokinesis_follows_most_of_the_route():
     assert sum(r["success"] for r in rows) >= 2
 
 
+def test_klinokinesis_follows_most_of_a_short_route():
+    """The CI variant of the slow test above: a 5 m route, seeds 1-4, 30 s (measured: 100, 80, 80 and 80 % of
+    checkpoints, seed 1 reaching the end; a memory that learnt nothing: 40 % in each)."""
+    rows = [route_trial(RouteFollowingConfig(strategy="klinokinesis", route_m=5.0, duration_s=30.0, n_kc=2000,
+                                             landscape=False), "kinematic", seed)[0] for seed in range(1, 5)]
+    assert np.mean([r["checkpoints_reached"] for r in rows]) >= 0.75
+    assert sum(r["success"] for r in rows) >= 1
+
+
 def test_a_kinematic_batch_gives_each_trial_the_numbers_it_has_alone():
     """Shared forest (forest_seed): trial k of a batch of 4 == trial k run alone == the one-at-a-time loop."""
     from scenarios.route_following import run_kinematic_batch
@@ -217,15 +226,63 @@ def test_the_scan_gain_and_test_views_left_at_0_are_the_bodys_own():
     assert (chosen.scan_full_turn_deg, chosen.test_views_per_cycle) == (60.0, 2)
 
 
+class ScriptedMemory:
+    """A memory whose scan returns the next of the given novelty rows (offsets -20 to 20° in 10° steps)."""
+
+    offsets = np.array([-20.0, -10.0, 0.0, 10.0, 20.0])  # deg, + right
+
+    def __init__(self, rows):
+        self.rows = iter(rows)
+
+    def scan(self, panorama):
+        return self.offsets, np.asarray(next(self.rows), float), 0.1
+
+
+class StandingAnt:
+    """The loop and backend a steering call reads: position, heading, panorama and the time."""
+
+    time_s = 0.0
+
+    @property
+    def backend(self):
+        return self
+
+    def read(self, names):
+        return {"position": np.zeros((1, 2)), "heading": np.zeros((1, 1)), "panorama": np.zeros((1, 72, 72))}
+
+
+def test_the_test_turns_on_the_novelty_averaged_over_the_cycles_views():
+    """Four views per cycle (the physics ants' own): the turn of a cycle is the scan of the mean novelty of
+    its last four views, not of the last view, and is held for the cycle's other views."""
+    from scenarios.route_following import FamiliaritySteering
+
+    first = [5.0, 5.0, 0.0, 5.0, 5.0]  # straight ahead least novel
+    swayed_left = [5.0, 1.0, 3.0, 4.0, 5.0]  # three views: least novel 10° left
+    swayed_right = [5.0, 4.0, 3.0, 4.0, 0.5]  # the last view alone: least novel 20° right
+    rows = [first, swayed_left, swayed_left, swayed_left, swayed_right]
+    steering = FamiliaritySteering("scan", ScriptedMemory(rows), np.zeros((2, 2)), 0.5, views_per_cycle=4,
+                                   full_turn_deg=30.0)
+    turns = [steering(StandingAnt())[0] for _ in rows]
+    # Mean of the last four: 1.75 at 10° left, 3.875 at 20° right: turn left by 10/30 (the last view: right by 20/30).
+    assert turns == [0.0, 0.0, 0.0, 0.0, pytest.approx(1.0 / 3.0)]
+    assert len(steering.log["turn"]) == 2  # one decision per cycle
+
+
+def test_the_physics_ant_follows_a_short_route_with_its_own_steering():
+    """The CI variant of the slow test below: MuJoCo, a 3 m route, one trial (seed 1: every checkpoint, mean
+    distance 0.08 m, at most 0.13 m). A memory that learnt nothing strays up to 0.56 m from the same route."""
+    pytest.importorskip("mujoco")
+    config = RouteFollowingConfig(route_m=3.0, duration_s=15.0, n_kc=1000, landscape=False)
+    row, log = route_trial(config, "mujoco", seed=1)
+    assert row["success"] and row["checkpoints_reached"] == 1.0
+    assert row["mean_distance_m"] < 0.15 and row["max_distance_m"] < 0.3
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
 def test_the_physics_ants_follow_the_route_with_their_own_steering(backend):
-    """Measured (seed 1, defaults): MuJoCo and PyBullet reach the end, every checkpoint; PyBullet with the
-    unicycle's settings (body-aligned views, gain 30, one view per stride): 60 % of checkpoints, not the end."""
+    """Measured (seed 1, defaults): MuJoCo and PyBullet reach the end, every checkpoint. What the body's own
+    settings are for is following the route, asserted here; that PyBullet with the unicycle's settings falls short
+    (60 % of checkpoints, README "route-following") is a measurement, not a requirement: a better gait may close it."""
     row, _ = route_trial(RouteFollowingConfig(landscape=False), backend, seed=1)
     assert row["success"] and row["checkpoints_reached"] == 1.0 and row["mean_distance_m"] < 0.3
-    if backend == "pybullet":
-        unicycle_settings = RouteFollowingConfig(landscape=False, travel_aligned_views=False, scan_full_turn_deg=30.0,
-                                                 test_views_per_cycle=1)
-        row, _ = route_trial(unicycle_settings, backend, seed=1)
-        assert not row["success"] and row["checkpoints_reached"] <= 0.8
