@@ -176,15 +176,35 @@ class InProcess:
 
 # -- a local process pool -------------------------------------------------------------------------------
 
+# Shared objects of OpenGL drivers (Mesa's per-device *_dri.so or its merged libgallium, NVIDIA's
+# GL/EGL cores, OSMesa): loaded into a process when it first makes a GL context, not on import.
+_GL_DRIVER_NAMES = ("_dri.so", "libgallium", "libnvidia-glcore", "libnvidia-eglcore", "libosmesa")
+
+
+def gl_driver_loaded(maps_path: str = "/proc/self/maps") -> bool:
+    """Whether this process has loaded an OpenGL driver (it rendered, e.g. MuJoCo's eyes through EGL).
+
+    Read from the process's memory map (Linux); False where there is none.
+    """
+    try:
+        with open(maps_path, encoding="utf-8", errors="replace") as maps:
+            return any(name in line.lower() for line in maps for name in _GL_DRIVER_NAMES)
+    except OSError:
+        return False
+
+
 def pool_context():
     """The multiprocessing context of local workers: fork on Linux, spawn elsewhere.
 
     fork starts workers in milliseconds with everything already imported, but a forked worker
-    inherits the parent's descriptors; :func:`worker_initializer` closes the run's lock.
+    inherits the parent's descriptors; :func:`worker_initializer` closes the run's lock. A process
+    that has rendered (:func:`gl_driver_loaded`) spawns its workers instead: a child forked from it
+    deadlocks inside the GL driver (Mesa's swrast, waiting on a lock a thread of the parent held),
+    so a pool run after a rendered trial in the same Python session used to hang for ever.
     """
     import multiprocessing
 
-    method = "fork" if sys.platform.startswith("linux") else "spawn"
+    method = "fork" if sys.platform.startswith("linux") and not gl_driver_loaded() else "spawn"
     return multiprocessing.get_context(method)
 
 

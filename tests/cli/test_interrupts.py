@@ -79,20 +79,32 @@ def interrupt(args, out, *, workers, group, times, wait_for_part):
                 os.killpg(process.pid, signal.SIGINT)
             else:
                 os.kill(process.pid, signal.SIGINT)
-        try:
-            process.wait(timeout=GONE_S)
-        except subprocess.TimeoutExpired:
-            pytest.fail(f"the run still ran {GONE_S} s after the first Ctrl-C")
-        stderr = process.stderr.read().decode()
+        stderr = wait_gone(process)
     finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-        process.stderr.close()
-        left = [pid for pid in below if alive(pid)]
-        for pid in left:  # never leave them behind, even when the test fails
-            os.kill(pid, signal.SIGKILL)
+        left = clean_up(process, below)
     return process.returncode, stderr.splitlines(), left
+
+
+def wait_gone(process):
+    """The stderr of ``process`` once it has ended; the test fails if it runs GONE_S more seconds."""
+    try:
+        process.wait(timeout=GONE_S)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"the run still ran {GONE_S} s after the first Ctrl-C")
+    return process.stderr.read().decode()
+
+
+def clean_up(process, watched):
+    """Kill ``process`` (and its group) if it still runs, and every ``watched`` process that outlived it;
+    return those: nothing is left behind, even when the test fails."""
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGKILL)
+        process.wait()
+    process.stderr.close()
+    left = [pid for pid in watched if alive(pid)]
+    for pid in left:
+        os.kill(pid, signal.SIGKILL)
+    return left
 
 
 def check_interrupted(result):
@@ -152,19 +164,9 @@ def test_an_interrupt_while_a_part_is_written_does_not_wait_for_the_running_chun
             assert time.monotonic() < deadline, "the short point never finished"
             workers = descendants(process.pid) or workers
             time.sleep(0.01)
-        try:
-            process.wait(timeout=GONE_S)
-        except subprocess.TimeoutExpired:
-            pytest.fail(f"the run still ran {GONE_S} s after the interrupt")
-        stderr = process.stderr.read().decode()
+        stderr = wait_gone(process)
     finally:
-        if process.poll() is None:
-            os.killpg(process.pid, signal.SIGKILL)
-            process.wait()
-        process.stderr.close()
-        left = [pid for pid in workers if alive(pid)]
-        for pid in left:
-            os.kill(pid, signal.SIGKILL)
+        left = clean_up(process, workers)
     assert (process.returncode, stderr.splitlines()) == (130, [INTERRUPTED])
     assert left == []
 

@@ -147,6 +147,14 @@ def test_walking_goes_on_over_uneven_ground_with_larger_height_changes():
         assert bumpy_ik["body_height_var_m2"] > 4.0 * flat_ik["body_height_var_m2"], (flat_ik, bumpy_ik)
 
 
+def test_pybullets_ant_walks_on_over_uneven_ground_with_larger_height_changes():
+    """The slow test_uneven_ground_on_every_backend's claim for PyBullet, on one seed and 2 s."""
+    flat, _ = walk("pybullet", gait="tripod", duration_s=2.0)
+    rough, _ = walk("pybullet", seed=1, gait="tripod", terrain="uneven-2", duration_s=2.0)
+    assert not rough["fell"] and rough["forward_speed_m_s"] > 0.05, rough
+    assert rough["body_height_var_m2"] > 2.0 * flat["body_height_var_m2"], (flat, rough)  # measured: 9x
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
 @pytest.mark.parametrize("gait", ["tripod", "ik"])
