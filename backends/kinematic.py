@@ -8,7 +8,7 @@ Two motion models (chosen by :class:`neuronav.world.PointAgents`):
 - ``unicycle`` — driven by the locomotion command (``turn`` in [-1, 1], ``stride`` = hip swing S_l in
   rad) through a calibration table of (turn, stride) -> (forward speed m/s, turn rate rad/s),
   interpolated bilinearly: the one measured on MuJoCo (``backends/data/unicycle_mujoco.json``,
-  made by ``python -m scenarios.calibrate_unicycle``) when present, else a geometric one.
+  made by ``python -m neuronav.scenarios.calibrate_unicycle``) when present, else a geometric one.
   Timestep 8 ms (the paper's control step).
 
 Heading is clockwise from +y, so an agent at heading h moves along (sin h, cos h).
@@ -95,7 +95,7 @@ DATA_DIR = Path(__file__).resolve().parent / "data"
 
 
 def load_calibration(path: Path) -> UnicycleCalibration:
-    """A calibration table written by ``python -m scenarios.calibrate_unicycle``."""
+    """A calibration table written by ``python -m neuronav.scenarios.calibrate_unicycle``."""
     try:
         table = json.loads(Path(path).read_text())
         calibration = UnicycleCalibration(

@@ -2,8 +2,8 @@
 
 Measures, in one run and on one core:
 
-(a) batch 1: ``CompiledCircuit.step`` of ``brains.cx.stone2017`` against
-    ``brains.cx_reference.StoneNumpy.step`` at the same noise level; target compiled/hand-written <= 1.0;
+(a) batch 1: ``CompiledCircuit.step`` of ``neuronav.brains.cx.stone2017`` against
+    ``neuronav.brains.cx_reference.StoneNumpy.step`` at the same noise level; target compiled/hand-written <= 1.0;
 (b) batch N (default 1000): the compiled circuit's cost per agent-step (time per step / N) and the
     per-agent speed-up batch 1 -> batch N; target >= 50x. For context it also times (b) with the noise
     off, and the floor set by the random numbers alone: every agent-step needs one N(0, 1) draw per
@@ -38,8 +38,8 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
 
-from brains.cx import stone2017  # noqa: E402
-from brains.cx_reference import StoneNumpy  # noqa: E402
+from neuronav.brains.cx import stone2017  # noqa: E402
+from neuronav.brains.cx_reference import StoneNumpy  # noqa: E402
 
 TARGET_BATCH1_RATIO = 1.0  # compiled / hand-written, at most
 TARGET_PER_AGENT_SPEEDUP = 50.0  # per-agent cost batch 1 / batch N, at least

@@ -64,9 +64,9 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bodies.desert_ant import desert_ant  # noqa: E402
-from bodies.gaits import make_gait  # noqa: E402
 from neuronav import registry  # noqa: E402
+from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
+from neuronav.bodies.gaits import make_gait  # noqa: E402
 from neuronav.body import BodySpec  # noqa: E402
 from neuronav.world import World  # noqa: E402
 

@@ -2,7 +2,7 @@
 
 Measures, on one core (BLAS limited to one thread):
 
-(a) batch 1: ``CompiledCircuit.step`` of ``brains.mushroom_body.mushroom_body()`` (learning off)
+(a) batch 1: ``CompiledCircuit.step`` of ``neuronav.brains.mushroom_body.mushroom_body()`` (learning off)
     against :class:`MushroomBodyNumpy` (a dense BLAS product for PN→KC, the threshold, each
     agent's KC→MBON weights); target compiled/hand-written <= 1.0;
 (b) batch N (default 1000): cost per agent-step of both, and the compiled circuit's per-agent
@@ -39,7 +39,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # run from a checkout without installing
 
-from brains.mushroom_body import KC_THRESHOLD, kc_wiring, mushroom_body, pn_code  # noqa: E402
+from neuronav.brains.mushroom_body import KC_THRESHOLD, kc_wiring, mushroom_body, pn_code  # noqa: E402
 
 N_PN, N_KC, INPUTS_PER_KC = 81, 4000, 10
 TARGET_BATCH1_RATIO = 1.0

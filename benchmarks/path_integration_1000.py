@@ -6,7 +6,7 @@ Measures on one core (BLAS pinned to one thread before numpy is imported):
    one compiled circuit and one kinematic backend — with the scenario's defaults (float32, table
    noise) and with exact arithmetic (float64, numpy's Gaussian sampler);
 2. the same trials run one by one with the hand-written numpy model
-   (``brains.cx_reference.StoneNumpy``) and the agent equations written out per step: the same
+   (``neuronav.brains.cx_reference.StoneNumpy``) and the agent equations written out per step: the same
    routes (``outbound_routes``), 1500 steps out and 1500 back. Running all 1000 that way takes
    minutes, so ``--baseline-trials`` of them are timed and the per-trial time is multiplied by the
    trial count (printed as an extrapolation).
@@ -46,10 +46,10 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from brains.cx_reference import StoneNumpy  # noqa: E402
+from neuronav.brains.cx_reference import StoneNumpy  # noqa: E402
 from neuronav.config import apply_overrides  # noqa: E402
 from neuronav.runner import load_scenario, run_trials  # noqa: E402
-from scenarios.path_integration import PathIntegrationConfig, outbound_routes  # noqa: E402
+from neuronav.scenarios.path_integration import PathIntegrationConfig, outbound_routes  # noqa: E402
 
 TARGET_SPEEDUP = 100.0
 TARGET_S = 3.0

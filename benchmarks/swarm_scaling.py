@@ -4,9 +4,9 @@ For N = 1, 4, 16 (``--ants``) desert ants, each walked by its own FK tripod gait
 8 ms control step, joint targets written, the 2 ms physics stepped, positions read once per control
 step), on flat ground, without rendering:
 
-- one model: the N ants in one MuJoCo model (:class:`backends.mujoco.swarm.MujocoSwarm`), 5 m apart
+- one model: the N ants in one MuJoCo model (:class:`neuronav.backends.mujoco.swarm.MujocoSwarm`), 5 m apart
   on a sunflower spiral, each walking a gentle curve of its own (they do not meet in the run);
-- separate: N single-ant models (:class:`backends.mujoco.MujocoBackend`), each stepped through the
+- separate: N single-ant models (:class:`neuronav.backends.mujoco.MujocoBackend`), each stepped through the
   same walk in turn, as N separate runs would be.
 
 The figure is ants x simulated seconds per CPU second of this process (``time.process_time``, one
@@ -35,12 +35,12 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from backends.mujoco import MujocoBackend  # noqa: E402
-from backends.mujoco.swarm import MujocoSwarm  # noqa: E402
-from bodies.desert_ant import desert_ant  # noqa: E402
-from bodies.gaits import make_gait  # noqa: E402
+from neuronav.backends.mujoco import MujocoBackend  # noqa: E402
+from neuronav.backends.mujoco.swarm import MujocoSwarm  # noqa: E402
+from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
+from neuronav.bodies.gaits import make_gait  # noqa: E402
+from neuronav.scenarios.swarm_homing import home_positions  # noqa: E402
 from neuronav.world import Ground, World  # noqa: E402
-from scenarios.swarm_homing import home_positions  # noqa: E402
 
 CONTROL_S, PHYSICS_S = 0.008, 0.002
 STRIDE_RAD = np.radians(15.0)

@@ -47,12 +47,12 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from bodies.desert_ant import desert_ant  # noqa: E402
 from neuronav import registry  # noqa: E402
+from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
+from neuronav.scenarios.visual_beacon import VisualBeaconConfig, beacon_trial  # noqa: E402
+from neuronav.scenarios.visual_setup import point_agent_cameras  # noqa: E402
 from neuronav.scenery import compass_scene  # noqa: E402
 from neuronav.world import PointAgents  # noqa: E402
-from scenarios.visual_beacon import VisualBeaconConfig, beacon_trial  # noqa: E402
-from scenarios.visual_setup import point_agent_cameras  # noqa: E402
 
 
 def _engine(name: str, agents: int = 1):

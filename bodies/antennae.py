@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from bodies.gaits import segment_pose
+from neuronav.bodies.gaits import segment_pose
 from neuronav.body import BodySpec
 from neuronav.errors import ConfigError
 from neuronav.loop import Hook

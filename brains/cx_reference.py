@@ -5,7 +5,7 @@ own ``cx_rate.py``): one :class:`numpy.random.Generator`, one ``rng.normal`` cal
 small weight matrices built once and applied with ``@``. It has two jobs:
 
 - validation: with noise off it must give the same numbers as the graph-built, compiled
-  :func:`brains.cx.stone2017` (``tests/unit/test_cx_reference.py``);
+  :func:`neuronav.brains.cx.stone2017` (``tests/unit/test_cx_reference.py``);
 - the baseline of ``benchmarks/circuit_step.py``, which the compiled circuit must match or beat.
 
 It deliberately shares no code or constants with ``brains/cx.py``: every number is copied here from

@@ -83,7 +83,7 @@ def panorama_code(panorama, columns: int = PANORAMA_COLUMNS, rows: int = PANORAM
 
 def zernike_code(panorama, basis) -> np.ndarray:
     """The PN code (N, len(basis.orders)) of grey panoramas: the logarithms of the Zernike amplitudes
-    (:class:`brains.vision.ZernikeBasis`, n_max 16 gives 81), z-scored.
+    (:class:`neuronav.brains.vision.ZernikeBasis`, n_max 16 gives 81), z-scored.
 
     The logarithm (of the amplitude plus 0.1 % of the view's mean amplitude) is this module's choice:
     the low orders' amplitudes are orders of magnitude larger than the rest, so z-scored raw

@@ -63,7 +63,7 @@ Euler of the equations at 20 µs (17° -> 16.875°). The earlier explicit 0.1 ms
 oscillated, drifted to the nearest cell instead (17° -> 22.5° after 3 s): an artefact of the
 oscillation. Measured with::
 
-    python -c "import numpy as np; from brains.ring import *; s = ring_attractor().compile(batch=1); \\
+    python -c "import numpy as np; from neuronav.brains.ring import *; s = ring_attractor().compile(batch=1); \\
     settle(s, gaussian_cue(np.deg2rad(17), np.deg2rad(40))); \\
     print(np.rad2deg(settle(s, np.zeros(N_CELLS), duration_s=3.0)))"
 

@@ -3,7 +3,7 @@
 The current heading bump (TB1, 8 columns of 45°) is copied and rolled by ``s`` columns to make a
 desired heading; Stone et al. 2017's steering circuit (Pontine, CPU1, ``motor``) then turns the
 agent toward it, exactly as it turns the agent toward home from the CPU4 memory in
-:func:`brains.cx.stone2017`. The shift arrives on the sensor port ``shift`` (shape (1,), integer
+:func:`neuronav.brains.cx.stone2017`. The shift arrives on the sensor port ``shift`` (shape (1,), integer
 columns, positive = clockwise = increasing heading).
 
 The variable roll uses rate neurons only:
@@ -61,8 +61,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from brains.cx import N_COLUMNS, heading_circuit, steering_populations
 from neuronav import Circuit, ConfigError, SensorSpec
+from neuronav.brains.cx import N_COLUMNS, heading_circuit, steering_populations
 
 MAX_SHIFT = 3
 COLUMN_RAD = 2.0 * np.pi / N_COLUMNS
@@ -105,7 +105,7 @@ def copy_and_shift(noise: float = 0.0, max_shift: int = MAX_SHIFT, invert_goal: 
     ----------
     noise : float
         Standard deviation of the Gaussian noise on every CX population's rates (as in
-        :func:`brains.cx.stone2017`).
+        :func:`neuronav.brains.cx.stone2017`).
     max_shift : int
         Largest allowed |shift|, in columns of 45° (1 to 4).
     invert_goal : bool

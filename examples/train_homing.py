@@ -33,7 +33,7 @@ from pathlib import Path
 import gymnasium
 import numpy as np
 
-import scenarios.envs  # noqa: F401  (registers the neuronav ids)
+import neuronav.scenarios.envs  # noqa: F401  (registers the neuronav ids)
 
 ENV_ID = "neuronav/AntHoming-v0"
 # Shorter trips than the scenario's (32 s out, 90 s home) so that an episode takes a fraction of a second.

@@ -5,7 +5,7 @@ is computed once, engine-free, from a :class:`~neuronav.world.World`'s ``odour.t
 ``appearance``, and every backend shows that same image:
 
 - MuJoCo draws it as a textured, visual-only plane over :attr:`TrailFloor.x_range_m` ×
-  :attr:`TrailFloor.y_range_m` just above the ground (:mod:`backends.mujoco.mjcf`);
+  :attr:`TrailFloor.y_range_m` just above the ground (:mod:`neuronav.backends.mujoco.mjcf`);
 - PyBullet draws it as a textured, visual-only box in the physics client (videos), and its body
   cameras colour their ground pixels with :meth:`TrailFloor.rgb_at` (as they colour the checker);
 - the kinematic ray caster (:mod:`neuronav.raycast`) colours its ground hits with :meth:`TrailFloor.rgb_at`.

@@ -11,7 +11,8 @@ calibration starts.
 
 Usage::
 
-    python -m scenarios.calibrate_unicycle [--backend mujoco] [--duration 3.0] [--out PATH | --write-package-table]
+    python -m neuronav.scenarios.calibrate_unicycle [--backend mujoco] [--duration 3.0]
+        [--out PATH | --write-package-table]
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 
 from neuronav.config import apply_overrides
 from neuronav.rundir import write_atomic
-from scenarios.locomotion import LocomotionConfig, run_trial
+from neuronav.scenarios.locomotion import LocomotionConfig, run_trial
 
 TURNS = np.linspace(-1.0, 1.0, 9)
 STRIDES_DEG = np.array([0.0, 5.0, 10.0, 15.0, 20.0, 25.0])
@@ -50,7 +51,7 @@ def measure(backend: str, duration_s: float, seed: int = 0) -> dict:
             print(f"turn {turn:+.2f} stride {stride:4.1f} deg: {speed[i, j]:+.3f} m/s, {rate[i, j]:+.3f} rad/s")
     return {
         "source": f"measured on {backend}: FK tripod, flat ground, {duration_s:g} s per point "
-                  "(python -m scenarios.calibrate_unicycle)",
+                  "(python -m neuronav.scenarios.calibrate_unicycle)",
         "turn": TURNS.tolist(), "stride_rad": np.radians(STRIDES_DEG).tolist(),
         "speed_m_s": speed.tolist(), "turn_rate_rad_s": rate.tolist(),
     }

@@ -16,7 +16,7 @@ Protocol per trial (seed s; ``docs/parameters.md``, *Cue integration*):
   or counter-clockwise at random) of the true nest direction seen from the release point; then the
   ant is "carried" to the release point, ``release_distance_m`` from the nest at a random bearing,
   facing a random heading.
-- Homing: every gait cycle the brain (:mod:`scenarios.cue_integration_brain`) integrates, decodes the
+- Homing: every gait cycle the brain (:mod:`neuronav.scenarios.cue_integration_brain`) integrates, decodes the
   PI cue, matches its panorama against the snapshots (the visual cue), feeds both into the ring
   attractor with amplitudes shared by reliability, and steers toward the settled bump through CPU1.
   ``cues=pi`` or ``cues=vision`` leaves the other cue out (its amplitude 0). The trial ends at the nest
@@ -56,12 +56,12 @@ from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.loop import Clocks, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.cue_integration_brain import CueBrain, weighted_direction
+from neuronav.scenarios.trial_loop import run_loop
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
 from neuronav.scenery import forest, vision_appearance
 from neuronav.world import Ground, PointAgents, World
-from scenarios import EVERY_BACKEND
-from scenarios.cue_integration_brain import CueBrain, weighted_direction
-from scenarios.trial_loop import run_loop
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
 
 CUE_MODES = ("both", "pi", "vision")
 OUTBOUND_STEP_M = 0.29
@@ -148,7 +148,7 @@ def cue_world(config: CueIntegrationConfig) -> World:
 
 def panorama_camera(supersample: int | None = None):
     """The ant's panoramic camera on a point agent (its own supersampling, or ``supersample``)."""
-    from bodies.desert_ant import desert_ant
+    from neuronav.bodies.desert_ant import desert_ant
 
     camera = next(c for c in point_agent_cameras(desert_ant()) if c.name == "panorama")
     return camera if supersample is None else replace(camera, supersample=int(supersample))
@@ -156,7 +156,7 @@ def panorama_camera(supersample: int | None = None):
 
 def take_snapshots(config: CueIntegrationConfig, world: World) -> np.ndarray:
     """Skyline views (K, R, W) from ``snapshots`` points on the circle, each facing the nest."""
-    from brains.visual_homing import skyline_view
+    from neuronav.brains.visual_homing import skyline_view
 
     angles = 2.0 * np.pi * np.arange(config.snapshots) / config.snapshots
     positions = config.snapshot_radius_m * np.stack([np.sin(angles), np.cos(angles)], axis=1)
@@ -373,7 +373,7 @@ class CueIntegration(Scenario):
                               simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
 
     def figures(self, result: ScenarioResult, config: CueIntegrationConfig, out_dir: Path) -> list[Path]:
-        from scenarios.cue_integration_figures import write_cue_figures
+        from neuronav.scenarios.cue_integration_figures import write_cue_figures
 
         return write_cue_figures(result, config, Path(out_dir))
 

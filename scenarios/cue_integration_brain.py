@@ -2,20 +2,20 @@
 
 Once per gait cycle (0.64 s), for a batch of agents:
 
-1. The CX (:func:`brains.cx.stone2017`, the embodied settings of ``path-integration``'s i2bot protocol)
-   integrates the cycle's displacement; its CPU4 memory decodes (:func:`brains.cx.decode_home_vector`)
+1. The CX (:func:`neuronav.brains.cx.stone2017`, the embodied settings of ``path-integration``'s i2bot protocol)
+   integrates the cycle's displacement; its CPU4 memory decodes (:func:`neuronav.brains.cx.decode_home_vector`)
    to the PI home direction and a length. PI reliability ``r_PI = min(1, L / pi_full_m)``: it grows
    with the home vector's length (Wystrach et al. 2015, Proc. R. Soc. B 282: 20151484).
 2. The panorama's skyline band is compared with the snapshots stored facing the nest
-   (:mod:`brains.visual_homing`): the visual homing direction and the RIDF's relative depth ``c``.
+   (:mod:`neuronav.brains.visual_homing`): the visual homing direction and the RIDF's relative depth ``c``.
    Visual reliability ``r_V = min(1, c / vision_full)``.
-3. Each cue is a Gaussian bump on the ring's 32 cells (:func:`brains.ring.gaussian_cue`, width
+3. Each cue is a Gaussian bump on the ring's 32 cells (:func:`neuronav.brains.ring.gaussian_cue`, width
    :data:`CUE_SIGMA_RAD`), of amplitude ``A r_i / (r_PI + r_V)`` with ``A`` = :data:`TOTAL_AMPLITUDE`
    (twice the ring's tuned single-cue amplitude): the amplitudes share out a fixed total by
-   reliability. The ring (:func:`brains.ring.ring_attractor`) starts silent and settles for 0.2 s;
+   reliability. The ring (:func:`neuronav.brains.ring.ring_attractor`) starts silent and settles for 0.2 s;
    its bump is the combined direction.
-4. The bump is written as a goal in CPU4's format (:func:`brains.cx.goal_pattern`) into Stone et al.'s
-   steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`brains.cx.goal_steering`);
+4. The bump is written as a goal in CPU4's format (:func:`neuronav.brains.cx.goal_pattern`) into Stone et al.'s
+   steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`neuronav.brains.cx.goal_steering`);
    the turn and stride follow eqs. 3.6–3.7 for the batch (:func:`steering_commands`). The CPU1
    imbalance is about -1.27 sin(goal - heading) (tested), so the default gain ``k_pi = 1`` saturates
    the turn beyond ~50°; embodied homing's 5 saturates it at ~10° and flips the turn every cycle.
@@ -33,9 +33,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from brains.cx import CPU4_LEAK, decode_home_vector, goal_pattern, goal_steering, stone2017
-from brains.ring import CUE_AMPLITUDE, N_CELLS, gaussian_cue, ring_attractor, settle
-from brains.visual_homing import homing_direction, skyline_view
+from neuronav.brains.cx import CPU4_LEAK, decode_home_vector, goal_pattern, goal_steering, stone2017
+from neuronav.brains.ring import CUE_AMPLITUDE, N_CELLS, gaussian_cue, ring_attractor, settle
+from neuronav.brains.visual_homing import homing_direction, skyline_view
 
 CUE_SIGMA_RAD = float(np.radians(90.0))
 TOTAL_AMPLITUDE = 2.0 * CUE_AMPLITUDE

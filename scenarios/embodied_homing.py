@@ -21,15 +21,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from bodies.desert_ant import desert_ant
-from bodies.gaits import make_gait
-from brains.cx import decode_home_vector, stone2017
 from neuronav import registry
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.bodies.gaits import make_gait
+from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.scenario import ScenarioResult
+from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.world import Ground, PointAgents, World
-from scenarios.trial_loop import run_loop, trials_one_by_one
 
 CYCLE_S = 0.64
 CONTROL_S = 0.008
@@ -127,7 +127,7 @@ def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=N
     """All trials of the embodied protocol, one after another (one body per engine).
 
     With ``video_path``, the first trial is filmed by the follow camera: an MP4 that plays in real
-    time (:func:`scenarios.trial_loop.run_loop`).
+    time (:func:`neuronav.scenarios.trial_loop.run_loop`).
     """
     check_embodied(config, backend_name)
     rows, logs = trials_one_by_one(lambda s, video: embodied_trial(config, backend_name, s, video), trials, seed,

@@ -10,7 +10,8 @@ home, and the spread of the tortuosity.
 
 Usage::
 
-    python -m scenarios.fig7_statistics [--runs 40] [--trials 1000] [--set dtype=float64 --set noise_method=gaussian]
+    python -m neuronav.scenarios.fig7_statistics [--runs 40] [--trials 1000]
+        [--set dtype=float64 --set noise_method=gaussian]
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 
 from neuronav.config import apply_overrides
 from neuronav.errors import NeuronavError
-from scenarios.path_integration import PathIntegration, PathIntegrationConfig
+from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -7,7 +7,7 @@ on rough ground and a small random initial yaw).
 
 Clocks: physics every ``timestep_s`` (2 ms), the gait every ``control_dt_s`` (8 ms, the paper's
 control step; one gait sample per control step). Gaits start from the rest pose and ramp up to
-the full stride over their first cycle (:meth:`bodies.gaits.FKGait.envelope`).
+the full stride over their first cycle (:meth:`neuronav.bodies.gaits.FKGait.envelope`).
 
 Where things are measured: positions, speeds and heights at the body centre (the whole body's
 centre of mass at the rest pose, a point fixed in the thorax frame 0.34 m behind the root, between
@@ -46,17 +46,17 @@ from pathlib import Path
 
 import numpy as np
 
-from bodies.desert_ant import LEGS, desert_ant
-from bodies.gaits import PostureGait, foot_position, make_gait, segment_pose
 from neuronav import registry
+from neuronav.bodies.desert_ant import LEGS, desert_ant
+from neuronav.bodies.gaits import PostureGait, foot_position, make_gait, segment_pose
 from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import PHYSICS_BACKENDS
 from neuronav.video import VideoRecorder
 from neuronav.world import Ground, World
-from scenarios import PHYSICS_BACKENDS
 
 TERRAINS = {
     "flat": dict(kind="flat"),
@@ -182,7 +182,7 @@ class Locomotion(Scenario):
         return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=config.duration_s)
 
     def figures(self, result: ScenarioResult, config: LocomotionConfig, out_dir: Path) -> list[Path]:
-        from scenarios.locomotion_figures import write_figures
+        from neuronav.scenarios.locomotion_figures import write_figures
 
         return write_figures(result, config, Path(out_dir))
 

@@ -1,6 +1,6 @@
 """Figures of the locomotion scenario, after the paper's Fig. 2: paths, middle-right leg traces, gait diagram, climb.
 
-Positions are those of the body centre (see :mod:`scenarios.locomotion`); the climb figure also shows the
+Positions are those of the body centre (see :mod:`neuronav.scenarios.locomotion`); the climb figure also shows the
 root (the front of the thorax), which rises more when the body rears up against the wall.
 
 Each ``*_figure`` function draws one figure and returns it; :func:`write_figures` saves them.
@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bodies.desert_ant import LEGS
+from neuronav.bodies.desert_ant import LEGS
 from neuronav.plotting import new_figure, save, trial_colour
 
 # A claw pressing on the ground with more than this counts as touching in the gait diagram.

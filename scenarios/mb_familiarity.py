@@ -4,7 +4,7 @@ and the capacity (``docs/parameters.md`` §9; Ardin et al. 2016, Baddeley et al.
 Views are the desert ant's panoramic camera (72 x 72, the whole sphere; one ray per pixel here)
 rendered by the kinematic backend's ray caster in a seeded forest, at points of a meandering route
 (a sine of 3 m amplitude and 20 m wavelength, views every ``SPACING_M`` along it, the heading along
-the route). The PN code is the down-sampled panorama (:func:`brains.mushroom_body.panorama_code`,
+the route). The PN code is the down-sampled panorama (:func:`neuronav.brains.mushroom_body.panorama_code`,
 36 x 9 blocks of 10°): it turns with the viewer, so familiarity depends on heading. Turning on the
 spot is taken as rolling the panorama by whole columns (5°; the eye sits 8 mm ahead of the turning
 axis, ignored).
@@ -20,7 +20,7 @@ Measurements:
   discrimination is the probability that an off-route view is more novel than an on-route one
   (the area under the ROC curve, ties counted half).
 
-Run ``python -m scenarios.mb_familiarity`` (prints the numbers, writes ``mb_capacity.png`` and
+Run ``python -m neuronav.scenarios.mb_familiarity`` (prints the numbers, writes ``mb_capacity.png`` and
 ``mb_rotational.png`` into ``--out``); ``tests/unit/test_mushroom_body.py`` keeps them true
 (its slow tests run the full measurements). Measured with the defaults (forest seed 1, 4000 KCs,
 KC wiring seed 0, 100 test points):
@@ -40,12 +40,19 @@ from pathlib import Path
 
 import numpy as np
 
-from backends.kinematic import KinematicBackend
-from bodies.desert_ant import desert_ant
-from brains.mushroom_body import PANORAMA_COLUMNS, PANORAMA_ROWS, learn_views, mushroom_body, novelty, panorama_code
+from neuronav.backends.kinematic import KinematicBackend
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.brains.mushroom_body import (
+    PANORAMA_COLUMNS,
+    PANORAMA_ROWS,
+    learn_views,
+    mushroom_body,
+    novelty,
+    panorama_code,
+)
+from neuronav.scenarios.visual_setup import point_agent_cameras
 from neuronav.scenery import forest, vision_appearance
 from neuronav.world import PointAgents, World
-from scenarios.visual_setup import point_agent_cameras
 
 SPACING_M = 0.1
 AMPLITUDE_M, WAVELENGTH_M = 3.0, 20.0

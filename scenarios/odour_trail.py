@@ -8,13 +8,13 @@ every agent starts at the same place with the same heading, walking toward the e
 ant that only walked straight would leave it (even the wide one: 0.8 m from its centre line).
 
 Once per gait cycle (0.64 s) the brain steers by the paper's Table 3
-(:class:`brains.trail_following.TrailFollowing`: search with random turns when neither antenna smells
+(:class:`neuronav.brains.trail_following.TrailFollowing`: search with random turns when neither antenna smells
 the trail, turn toward the stronger side when they differ, else straight) from what its two odour
 sites sensed: by default (``sensing=cycle_peak``) each site's highest concentration during the cycle
 (sampled every 8 ms control step, :class:`OdourPeakHook`: what the antenna met, as a receptor's
 response outlasts a brief contact), or (``sensing=instant``) the concentration at that moment.
 The antennae are ``fixed`` at rest, or ``moving``: both sweep in yaw ±0.7 rad with a noisy rhythm
-(:class:`bodies.antennae.AntennaSweep`, the defaults of ``bodies/antennae.py``, seeded per trial).
+(:class:`neuronav.bodies.antennae.AntennaSweep`, the defaults of ``bodies/antennae.py``, seeded per trial).
 ``both`` alternates them by the trial seed (even: fixed, odd: moving), so one run compares them.
 They rest 0.25 rad outward (``antenna_yaw_rad``; the body's default is I2Bot's 0.6): their odour
 sites 0.23 m apart, inside the normal trail. The paper's finding needs it: with the body's 0.6 rad
@@ -69,19 +69,19 @@ from pathlib import Path
 
 import numpy as np
 
-from bodies.antennae import AntennaSweep, AntennaYawHook, SweptAntennaeGait
-from brains.trail_following import K_D, SENSOR_SCALE, T_D, T_O, TrailFollowing
+from neuronav.bodies.antennae import AntennaSweep, AntennaYawHook, SweptAntennaeGait
+from neuronav.brains.trail_following import K_D, SENSOR_SCALE, T_D, T_O, TrailFollowing
 from neuronav.chemistry import OdourScene
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.odour import TRAIL_WIDTHS_M, PolylineTrail
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenery import vision_appearance
 from neuronav.world import Ground, World
-from scenarios import EVERY_BACKEND
-from scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 ANTENNA_MODES = ("fixed", "moving")
 WIDTHS = tuple(TRAIL_WIDTHS_M)
@@ -337,7 +337,7 @@ class OdourTrail(Scenario):
                               simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
 
     def figures(self, result: ScenarioResult, config: OdourTrailConfig, out_dir: Path) -> list[Path]:
-        from scenarios.odour_trail_figures import write_trail_figures
+        from neuronav.scenarios.odour_trail_figures import write_trail_figures
 
         return write_trail_figures(result, config, Path(out_dir))
 

@@ -31,7 +31,7 @@ def _modes(result) -> list[str]:
 
 def trajectories_figure(result, config):
     """Top view: the trail (rasterised concentration) and every trial's path coloured by its antennae."""
-    from scenarios.odour_trail import end_line_m, make_trail
+    from neuronav.scenarios.odour_trail import end_line_m, make_trail
 
     trail = make_trail(config.width, config.edge_m)
     paths = [p[np.isfinite(p[:, 0])] for p in result.timeseries["position_m"]]

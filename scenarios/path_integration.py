@@ -20,13 +20,13 @@ from pathlib import Path
 
 import numpy as np
 
-from brains.cx import decode_home_vector, stone2017
 from neuronav import bind, registry
+from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
 from neuronav.world import PointAgents, World
-from scenarios import EVERY_BACKEND
 
 
 @dataclass
@@ -143,7 +143,7 @@ class PathIntegration(Scenario):
 
         ``protocol=stone2017`` moves point agents: kinematic backend only; its recording needs
         ``record_every <= outbound_steps + inbound_steps``. The i2bot protocol's rules are
-        :func:`scenarios.embodied_homing.check_embodied`'s.
+        :func:`neuronav.scenarios.embodied_homing.check_embodied`'s.
 
         Raises
         ------
@@ -152,7 +152,7 @@ class PathIntegration(Scenario):
         """
         protocol = self.protocol(config, backend)
         if protocol == "i2bot":
-            from scenarios.embodied_homing import check_embodied
+            from neuronav.scenarios.embodied_homing import check_embodied
 
             check_embodied(config, backend)
             return
@@ -182,7 +182,7 @@ class PathIntegration(Scenario):
             video_path: Path | None = None) -> ScenarioResult:
         protocol = self.protocol(config, backend)
         if protocol == "i2bot":
-            from scenarios.embodied_homing import run_embodied
+            from neuronav.scenarios.embodied_homing import run_embodied
 
             return run_embodied(config, backend, trials, seed, video_path)
         if backend != "kinematic":
@@ -242,10 +242,10 @@ class PathIntegration(Scenario):
     # -- figures -------------------------------------------------------------------------------
     def figures(self, result: ScenarioResult, config: PathIntegrationConfig, out_dir: Path) -> list[Path]:
         if "fed_velocity" in result.timeseries:
-            from scenarios.embodied_homing_figures import write_embodied_figures
+            from neuronav.scenarios.embodied_homing_figures import write_embodied_figures
 
             return write_embodied_figures(result, config, Path(out_dir))
-        from scenarios.path_integration_figures import write_figures
+        from neuronav.scenarios.path_integration_figures import write_figures
 
         return write_figures(result, config, Path(out_dir))
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from brains.cx import stone2017
+from neuronav.brains.cx import stone2017
 from neuronav.plotting import heading_panel, new_figure, plot_circuit, plot_connectivity, save, trial_colour
 
 MAX_TRAJECTORIES = 200

@@ -10,12 +10,12 @@ The ant starts downwind at ``x = start_x_m``, at a lateral position drawn unifor
 ``±start_lateral_m`` (0.5 m) of the plume's axis and a heading drawn uniformly within
 ``±start_heading_deg`` (45°) of upwind (180: any heading). Once per gait cycle
 (0.64 s) the brain reads ``odour`` (1, 2, K) and ``wind`` (1, 2, 2) at the antenna tips and its
-``heading``, and steers by eq. 3.11 (:class:`brains.plume_tracking.PlumeController`): with odour
+``heading``, and steers by eq. 3.11 (:class:`neuronav.brains.plume_tracking.PlumeController`): with odour
 above 1e-6 at either antenna it turns toward upwind as sensed at the antenna with more odour, then
 walks straight two gait cycles; without odour it turns on the spot at random. ``odour=off`` is the
 control: the brain's odour input is zero, so it always searches. ``stride_rule=divide`` reads eq.
 3.11's stride as ``5° + |m − h| / 5`` (at most 15°) instead of the printed ``5° + (m − h) mod 5°``
-(:mod:`brains.plume_tracking`).
+(:mod:`neuronav.brains.plume_tracking`).
 
 The start matters: an ant that loses the plume turns on the spot until the meandering plume comes
 back over it, and each orienting turn (12–23° per gait cycle at a 5–10° stride) is followed by two
@@ -57,19 +57,19 @@ from pathlib import Path
 
 import numpy as np
 
-from brains.plume_tracking import ORIENT, PlumeController, wrap_rad
+from neuronav.brains.plume_tracking import ORIENT, PlumeController, wrap_rad
 from neuronav.chemistry import OdourScene
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.plume import OdourSource, PlumeConfig, WindConfig
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.trial_loop import VIDEO_EVERY, trials_one_by_one
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.trials import stack_padded
 from neuronav.video import VideoRecorder
 from neuronav.world import World
-from scenarios import EVERY_BACKEND
-from scenarios.trial_loop import VIDEO_EVERY, trials_one_by_one
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 # Sensor samples for the metrics and figures: every this many control steps (0.064 s).
 SAMPLE_EVERY = 8
@@ -271,7 +271,7 @@ class PlumeTracking(Scenario):
                               simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
 
     def figures(self, result: ScenarioResult, config: PlumeTrackingConfig, out_dir: Path) -> list[Path]:
-        from scenarios.plume_tracking_figures import write_plume_figures
+        from neuronav.scenarios.plume_tracking_figures import write_plume_figures
 
         return write_plume_figures(result, config, Path(out_dir))
 
@@ -279,7 +279,7 @@ class PlumeTracking(Scenario):
 def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
     """Per-trial logs as arrays with the trial first: samples and gait cycles NaN-padded, the plume
     rasters stacked, the puffs NaN-padded (:func:`neuronav.trials.stack_padded`, as chunks are joined);
-    ``branch`` codes index :data:`brains.plume_tracking.BRANCHES`."""
+    ``branch`` codes index :data:`neuronav.brains.plume_tracking.BRANCHES`."""
     packed = {key: stack_padded([log[key] for log in logs], float)
               for key in ("time_s", "position_m", "heading_rad", "odour", "wind_mps", "cycle_time_s", "branch",
                           "turn", "stride_rad")}

@@ -1,12 +1,12 @@
 """Route following by visual familiarity: a mushroom body learns a route's views, then steers the ant along it.
 
 After Ardin et al. 2016, Baddeley et al. 2012 and Kodzhabashev & Mangan 2015 (``docs/parameters.md`` §9).
-Each trial grows a seeded forest about a fixed meandering route (:mod:`scenarios.mb_familiarity`:
+Each trial grows a seeded forest about a fixed meandering route (:mod:`neuronav.scenarios.mb_familiarity`:
 a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` long).
 
 1. **Training**: the ant walks the route under guidance (pure pursuit of the route point 1 m ahead
    of the nearest one) and, ``views_per_cycle`` times per gait cycle (0.64 s), stores its panoramic
-   view in the mushroom body (:func:`brains.mushroom_body.mushroom_body`, panorama code, learning on).
+   view in the mushroom body (:func:`neuronav.brains.mushroom_body.mushroom_body`, panorama code, learning on).
 2. **Test**: the ant is put back at the route's start (displaced ``release_offset_m`` to the right
    of it for a catchment test), facing the route's first heading, and only the mushroom body
    steers, once per gait cycle, by ``strategy``:
@@ -26,7 +26,7 @@ The scan's gain and views per stride are the body's own where the settings leave
 the physics ants, whose heading sways within a stride and overshoots at the unicycle's gain.
 ``travel_aligned_views`` (on) stores each training view turned to face the way the ant moved over
 its last gait cycle: the walking ant crabs toward the inside of a turn (MuJoCo: 7.6-8.2° at θ = ±0.2,
-PyBullet 10.1-13.0°; ``python -m scenarios.turn_response``), so body-aligned views taken in a bend
+PyBullet 10.1-13.0°; ``python -m neuronav.scenarios.turn_response``), so body-aligned views taken in a bend
 face off the path, and a test ant that holds that heading without turning walks off the route.
 
 Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came
@@ -55,17 +55,24 @@ from pathlib import Path
 
 import numpy as np
 
-from bodies.desert_ant import desert_ant
-from brains.mushroom_body import PANORAMA_COLUMNS, PANORAMA_ROWS, kc_sparsity, mushroom_body, novelty, panorama_code
 from neuronav import registry
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.brains.mushroom_body import (
+    PANORAMA_COLUMNS,
+    PANORAMA_ROWS,
+    kc_sparsity,
+    mushroom_body,
+    novelty,
+    panorama_code,
+)
 from neuronav.config import field
 from neuronav.loop import AgentLoop, Clocks
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.mb_familiarity import SPACING_M, forest_world, panoramas, route
+from neuronav.scenarios.trial_loop import pack_cycle_logs
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
 from neuronav.world import PointAgents
-from scenarios import EVERY_BACKEND
-from scenarios.mb_familiarity import SPACING_M, forest_world, panoramas, route
-from scenarios.trial_loop import pack_cycle_logs
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
 
 STRIDE_RAD = np.radians(20.0)
 LOOKAHEAD_M = 1.0
@@ -178,7 +185,7 @@ class GuidedLearning:
     gait cycle (``calls_per_cycle`` calls), not the way its body points: a legged body turning
     under differential stride walks crabwise (the body axis several degrees off its path), and a
     memory of body-aligned views would then steer the test ant, which walks along its body axis,
-    off the route (see :mod:`scenarios.turn_response`). The turned view is the panorama rolled by
+    off the route (see :mod:`neuronav.scenarios.turn_response`). The turned view is the panorama rolled by
     whole columns (5°), as in the test's scan.
     """
 
@@ -414,7 +421,7 @@ class RouteFollowing(Scenario):
                               simulated_time_s=config.duration_s)
 
     def figures(self, result: ScenarioResult, config: RouteFollowingConfig, out_dir: Path) -> list[Path]:
-        from scenarios.route_following_figures import write_route_figures
+        from neuronav.scenarios.route_following_figures import write_route_figures
 
         return write_route_figures(result, config, Path(out_dir))
 

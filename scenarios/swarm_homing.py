@@ -1,6 +1,6 @@
 """``swarm-homing``: many ants in one world, each with its own CX, forage from scattered starts and home.
 
-The embodied homing protocol (paper §2.3, :mod:`scenarios.embodied_homing`) for a swarm: ``ants``
+The embodied homing protocol (paper §2.3, :mod:`neuronav.scenarios.embodied_homing`) for a swarm: ``ants``
 ants share one world, each with its own Stone et al. 2017 CX (one circuit compiled with
 ``batch=ants``, ant j's noise seeded by its trial seed), reading its own body's heading and
 displacement once per gait cycle (0.64 s) and steering through the locomotion command (eqs.
@@ -12,8 +12,8 @@ runs until every ant is home or ``homing_timeout_s`` has passed.
 
 Bodies: on ``kinematic`` each ant is a unicycle point agent (they pass through each other; the
 default 1000 ants), on ``mujoco`` and ``pybullet`` each ant is the desert ant walked by its own
-FK tripod gait in one model (:class:`backends.mujoco.swarm.MujocoSwarm`, at most 31 ants;
-:class:`backends.pybullet.swarm.PybulletSwarm`), where the ants collide with each other:
+FK tripod gait in one model (:class:`neuronav.backends.mujoco.swarm.MujocoSwarm`, at most 31 ants;
+:class:`neuronav.backends.pybullet.swarm.PybulletSwarm`), where the ants collide with each other:
 ``ant_contact_s`` is how long an ant touched another.
 
 Trials and rows
@@ -42,8 +42,8 @@ from pathlib import Path
 
 import numpy as np
 
-from brains.cx import decode_home_vector, stone2017
 from neuronav import sweep
+from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.loop import integer_ratio
@@ -54,7 +54,7 @@ CYCLE_S = 0.64  # one tripod gait cycle: the brain's period
 CONTROL_S = 0.008
 MIN_STRIDE_RAD = np.radians(5.0)
 EXTRA_STRIDE_RAD = np.radians(20.0)
-MAX_PHYSICS_ANTS = 31  # backends.mujoco.swarm.MAX_ANTS: one contact bit per ant
+MAX_PHYSICS_ANTS = 31  # neuronav.backends.mujoco.swarm.MAX_ANTS: one contact bit per ant
 # Memory of one swarm (kinematic, --trials 1, peak RSS of the whole command): 5000 ants for 313 gait
 # cycles took 54.6 MB more than for 11 (36 B per ant and cycle: the float64 trajectories, their float32
 # record and its copy on the way to the file), 20000 ants 99 MB more than 5000 (6.6 KB per ant: the
@@ -113,19 +113,19 @@ class SwarmBodies:
         self.backend, self.count = backend, config.ants
         world = World(ground=Ground(size_m=80.0))  # flat: the ground plane collides everywhere
         if backend == "kinematic":
-            from backends.kinematic import KinematicBackend
+            from neuronav.backends.kinematic import KinematicBackend
 
             self.engine = KinematicBackend(timestep_s=CONTROL_S)
             self.engine.load(world, [PointAgents(count=self.count, mode="unicycle")])
             self.gaits, self.physics_steps = None, 1
         else:
-            from bodies.desert_ant import desert_ant
-            from bodies.gaits import make_gait
+            from neuronav.bodies.desert_ant import desert_ant
+            from neuronav.bodies.gaits import make_gait
 
             if backend == "mujoco":
-                from backends.mujoco.swarm import MujocoSwarm as Swarm
+                from neuronav.backends.mujoco.swarm import MujocoSwarm as Swarm
             else:
-                from backends.pybullet.swarm import PybulletSwarm as Swarm
+                from neuronav.backends.pybullet.swarm import PybulletSwarm as Swarm
             ant = desert_ant()
             self.engine = Swarm(timestep_s=config.timestep_s)
             self.engine.load(world, [ant] * self.count)
@@ -337,6 +337,6 @@ class SwarmHoming(Scenario):
                               simulated_time_s=float(np.mean([log["end_s"] for log in logs.values()])))
 
     def figures(self, result: ScenarioResult, config: SwarmHomingConfig, out_dir: Path) -> list[Path]:
-        from scenarios.swarm_homing_figures import write_figures
+        from neuronav.scenarios.swarm_homing_figures import write_figures
 
         return write_figures(result, config, Path(out_dir))

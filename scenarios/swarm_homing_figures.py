@@ -11,7 +11,7 @@ import numpy as np
 
 from neuronav.plotting import new_figure, save
 
-CYCLE_S = 0.64  # scenarios.swarm_homing.CYCLE_S: the trajectories' sample period
+CYCLE_S = 0.64  # neuronav.scenarios.swarm_homing.CYCLE_S: the trajectories' sample period
 HOMED_RGB, LOST_RGB = "tab:blue", "tab:red"
 
 

@@ -4,12 +4,12 @@ The tripod gait turns by differential stride (I2Bot Table 2): one side's sweep s
 turning that way does not walk along its own axis: over a gait cycle its path (the chord from the
 cycle's start to its end) points several degrees off its mean heading — it walks crabwise, toward the
 inside of the turn. How much, and how much it turns per cycle, depend on the physics engine's contacts.
-Route following by stored views is sensitive to both (:mod:`scenarios.route_following`): a view stored
+Route following by stored views is sensitive to both (:mod:`neuronav.scenarios.route_following`): a view stored
 while turning faces off the path, and a test ant that keeps that heading without turning walks off it.
 
-:mod:`scenarios.calibrate_unicycle` measures turn rate and speed over a (θ, stride) grid through the
+:mod:`neuronav.scenarios.calibrate_unicycle` measures turn rate and speed over a (θ, stride) grid through the
 locomotion scenario, for the kinematic backend's table; this module adds the crab angle, on the bodies
-route following drives (:func:`scenarios.visual_setup.make_engine`, the unicycle included).
+route following drives (:func:`neuronav.scenarios.visual_setup.make_engine`, the unicycle included).
 
 For each backend and each turn command θ (stride 20°, flat ground, 8 gait cycles; the first 3 left
 out), prints the heading change per cycle (deg, + clockwise, i.e. to the right) and the crab angle
@@ -17,7 +17,7 @@ out), prints the heading change per cycle (deg, + clockwise, i.e. to the right) 
 
 Usage::
 
-    python -m scenarios.turn_response [--backends mujoco,pybullet,kinematic] [--turns=-0.3,-0.1,0,0.1,0.3]
+    python -m neuronav.scenarios.turn_response [--backends mujoco,pybullet,kinematic] [--turns=-0.3,-0.1,0,0.1,0.3]
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ import numpy as np
 from neuronav import registry
 from neuronav.errors import NeuronavError
 from neuronav.loop import AgentLoop, Clocks, Hook
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.world import Ground, World
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 STRIDE_RAD = np.radians(20.0)
 CYCLES, SETTLE_CYCLES = 8, 3

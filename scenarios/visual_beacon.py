@@ -3,8 +3,8 @@
 A black cylinder (r 1 m, h 6 m) stands 25 m from the start, at (0, 25) m, among trees that are too
 light to pass the dark threshold. Once per gait cycle (0.64 s) the brain reads its eyes, finds the
 landmark's dark pixels and turns their offset from the image centre into a shift of the heading
-code (eqs. 3.8–3.9, :mod:`brains.vision`); the copy-and-shift circuit
-(:func:`brains.steering.copy_and_shift`) copies the current TB1 heading bump, rolls it by that shift
+code (eqs. 3.8–3.9, :mod:`neuronav.brains.vision`); the copy-and-shift circuit
+(:func:`neuronav.brains.steering.copy_and_shift`) copies the current TB1 heading bump, rolls it by that shift
 and steers toward it through CPU1:
 
     θ   = k_vb · (ΣCPU1_left − ΣCPU1_right)      (as eq. 3.6, with the visual beacon's gain)
@@ -24,18 +24,18 @@ from pathlib import Path
 
 import numpy as np
 
-from brains.steering import copy_and_shift
-from brains.vision import beacon_shift
+from neuronav.brains.steering import copy_and_shift
+from neuronav.brains.vision import beacon_shift
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.embodied_homing import steering_command
+from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenery import forest, landmark, vision_appearance
 from neuronav.world import Ground, World
-from scenarios import EVERY_BACKEND
-from scenarios.embodied_homing import steering_command
-from scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 EYE_MODES = ("left", "right", "both")
 EYES = {"left": ("eye_L",), "right": ("eye_R",), "both": ("eye_L", "eye_R")}
@@ -203,7 +203,7 @@ class VisualBeacon(Scenario):
                               simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
 
     def figures(self, result: ScenarioResult, config: VisualBeaconConfig, out_dir: Path) -> list[Path]:
-        from scenarios.visual_beacon_figures import write_beacon_figures
+        from neuronav.scenarios.visual_beacon_figures import write_beacon_figures
 
         return write_beacon_figures(result, config, Path(out_dir))
 

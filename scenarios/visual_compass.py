@@ -2,7 +2,7 @@
 
 The ant stands in the compass scene (five coloured objects 13–17 m around, :func:`neuronav.scenery.compass_scene`).
 Once per gait cycle (0.64 s) the brain reads its panorama, takes the phase Φ of the Zernike moment
-Z_{7,1} (:mod:`brains.vision`), stores it at the first cycle and steers by eq. 3.10:
+Z_{7,1} (:mod:`neuronav.brains.vision`), stores it at the first cycle and steers by eq. 3.10:
 
     θ   = sign(Φ(t) − Φ(0))       (which way the phase says the ant has turned)
     S_l = |Φ(t) − Φ(0)| / 5       (degrees; nothing inside the 0.8° dead band)
@@ -21,14 +21,14 @@ from pathlib import Path
 
 import numpy as np
 
-from brains.vision import ZernikeBasis, compass_command
+from neuronav.brains.vision import ZernikeBasis, compass_command
 from neuronav.config import field
 from neuronav.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenery import compass_scene
-from scenarios import EVERY_BACKEND
-from scenarios.trial_loop import run_loop, trials_one_by_one
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 
 @dataclass
@@ -187,6 +187,6 @@ class VisualCompass(Scenario):
         return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=config.duration_s)
 
     def figures(self, result: ScenarioResult, config: VisualCompassConfig, out_dir: Path) -> list[Path]:
-        from scenarios.visual_compass_figures import write_compass_figures
+        from neuronav.scenarios.visual_compass_figures import write_compass_figures
 
         return write_compass_figures(result, config, Path(out_dir))

@@ -3,7 +3,7 @@ the bodies per backend.
 
 The kinematic backend's unicycle carries the ant's own cameras, placed where they sit on the ant
 standing at rest (:func:`point_agent_cameras`), and its antennae, tips at the ant's odour sites
-(:func:`bodies.antennae.point_antennae`), so the same eyes look at the same world and the same
+(:func:`neuronav.bodies.antennae.point_antennae`), so the same eyes look at the same world and the same
 antennae smell the same odour on all three backends.
 """
 
@@ -13,10 +13,10 @@ from dataclasses import replace
 
 import numpy as np
 
-from bodies.antennae import point_antennae
-from bodies.desert_ant import desert_ant
-from bodies.gaits import make_gait, segment_pose
 from neuronav import registry
+from neuronav.bodies.antennae import point_antennae
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.bodies.gaits import make_gait, segment_pose
 from neuronav.body import BodySpec, Camera, quat_to_matrix
 from neuronav.world import PointAgents
 

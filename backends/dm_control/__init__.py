@@ -1,7 +1,8 @@
-"""The dm_control backend (``backends.dm_control:DmControlBackend``) and the ant as dm_control composer environments.
+"""The dm_control backend (``neuronav.backends.dm_control:DmControlBackend``) and the ant as dm_control
+composer environments.
 
 dm_control drives MuJoCo: the backend steps the MuJoCo backend's own compiled model through
-dm_control's :class:`dm_control.mujoco.Physics`; :mod:`backends.dm_control.composer_env` offers the
+dm_control's :class:`dm_control.mujoco.Physics`; :mod:`neuronav.backends.dm_control.composer_env` offers the
 ant, a world and an engine-free task as a ``composer`` entity, arena and task (``dm_env`` API).
 Rendering is headless: ``MUJOCO_GL`` defaults to ``egl`` and is set here, before MuJoCo is imported.
 """
@@ -10,6 +11,6 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from backends.dm_control.backend import DmControlBackend  # noqa: E402
+from neuronav.backends.dm_control.backend import DmControlBackend  # noqa: E402
 
 __all__ = ["DmControlBackend"]

@@ -2,18 +2,18 @@
 
 - :class:`AntEntity` — the ant as a ``composer.Entity``; :class:`WorldArena` — a
   :class:`~neuronav.world.World` as a ``composer.Arena``. Both come from one MJCF: the text that
-  :func:`backends.mujoco.mjcf.to_xml` writes for the world and the body spec (the MuJoCo backend's
+  :func:`neuronav.backends.mujoco.mjcf.to_xml` writes for the world and the body spec (the MuJoCo backend's
   own translation), split into the body's subtree with its actuators (the entity) and the rest (the
   arena: options, sky, ground, objects, lights). PyMJCF keeps ``/`` for its scopes, so every ``/`` in
   a name becomes ``_`` (``thorax/free`` -> ``thorax_free``); attached, the ant's names are prefixed
   ``ant/``. MJCF text holds 6 significant digits: masses and inertias agree with the compiled model
   of the MuJoCo backend to about 1e-6 relative (the dm_control *backend* uses that model itself).
 - :class:`PortTask` — a generic ``composer.Task`` over an engine-free task object (duck-typed: the
-  interface of ``scenarios.envs.tasks.NavigationTask``: ``world``, ``start``, ``observation_ports``,
+  interface of ``neuronav.scenarios.envs.tasks.NavigationTask``: ``world``, ``start``, ``observation_ports``,
   ``task_sensors``, ``state_ports``, ``observe``, ``reward``, ``terminated``, ``time_limit_s``).
   Its observables are named after the ports the task observes (``heading``, ``eye_L``, ``odour``, ...)
   and the observations the task computes (``home_vector``); they are read through the sensors of
-  :class:`~backends.dm_control.DmControlBackend`, bound to the composer physics, so an observation is
+  :class:`~neuronav.backends.dm_control.DmControlBackend`, bound to the composer physics, so an observation is
   exactly what a backend reports (odour and wind from the world's fields, eyes rendered by the rules
   of :mod:`neuronav.vision`). Reward, termination and the start pose are the task object's.
 - :func:`environment` — a ``composer.Environment`` of a task.
@@ -41,9 +41,9 @@ from dm_control import composer, mjcf  # noqa: E402
 from dm_control.composer.observation import observable  # noqa: E402
 from dm_env import specs  # noqa: E402
 
-from backends.dm_control.backend import DmControlBackend  # noqa: E402
-from backends.mujoco.mjcf import SCENE_BODY, ModelNames, build_spec, to_xml  # noqa: E402
-from backends.mujoco.swarm import prefixed_body  # noqa: E402
+from neuronav.backends.dm_control.backend import DmControlBackend  # noqa: E402
+from neuronav.backends.mujoco.mjcf import SCENE_BODY, ModelNames, build_spec, to_xml  # noqa: E402
+from neuronav.backends.mujoco.swarm import prefixed_body  # noqa: E402
 from neuronav.body import BodySpec  # noqa: E402
 from neuronav.errors import ConfigError, PortError  # noqa: E402
 from neuronav.world import World  # noqa: E402

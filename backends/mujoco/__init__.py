@@ -1,4 +1,4 @@
-"""The MuJoCo backend (``backends.mujoco:MujocoBackend``): one articulated body, built from its spec.
+"""The MuJoCo backend (``neuronav.backends.mujoco:MujocoBackend``): one articulated body, built from its spec.
 
 Rendering is headless: ``MUJOCO_GL`` defaults to ``egl`` and is set here, before MuJoCo is imported.
 """
@@ -7,6 +7,6 @@ import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
 
-from backends.mujoco.backend import MujocoBackend  # noqa: E402
+from neuronav.backends.mujoco.backend import MujocoBackend  # noqa: E402
 
 __all__ = ["MujocoBackend"]

@@ -6,7 +6,7 @@ Each physics step runs ``mj_step2`` then ``mj_step1`` (together exactly ``mj_ste
 steps every derived quantity (body poses, site positions, contacts) belongs to the current state:
 reads are consistent, and adhesion and external forces are computed from the contacts and poses
 of the state they act on. Position control lives in the model's actuators (see
-:mod:`backends.mujoco.mjcf`): ``ctrl`` holds the joint targets, and MuJoCo evaluates
+:mod:`neuronav.backends.mujoco.mjcf`): ``ctrl`` holds the joint targets, and MuJoCo evaluates
 ``clip(kp * (target - q) - kd * qdot, ±max_torque)`` every step.
 
 Stability
@@ -49,8 +49,8 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from backends.mujoco.mjcf import BODY_GROUP, HORIZON_GROUP, SCENE_BODY, ModelNames, compile_model  # noqa: E402
 from neuronav.articulated import ArticulatedBackend, FollowView  # noqa: E402
+from neuronav.backends.mujoco.mjcf import BODY_GROUP, HORIZON_GROUP, SCENE_BODY, ModelNames, compile_model  # noqa: E402
 from neuronav.body import BodySpec, Camera, quat_to_matrix  # noqa: E402
 from neuronav.errors import SimulationError  # noqa: E402
 from neuronav.vision import FAR_M, NEAR_M, View  # noqa: E402

@@ -7,7 +7,7 @@ agent axis, as the kinematic backend batches its point agents: ``read`` gives (N
 ``batch=N`` binds the same way on both. Ant i's segments, joints, geoms, sites and actuators are
 named ``ant{i}/<spec name>`` (:func:`prefixed_body`); the world's elements keep their names.
 
-The world is built by :mod:`backends.mujoco.mjcf` exactly as for one ant (same options, ground,
+The world is built by :mod:`neuronav.backends.mujoco.mjcf` exactly as for one ant (same options, ground,
 objects, trails); each ant is added by the same translation of its spec. The physics step is the
 single-ant backend's (``mj_step2`` then ``mj_step1``, the warning counters checked after it).
 
@@ -23,7 +23,7 @@ Sensors (per ant, with the agent axis first): ``heading`` (N, 1) rad, ``position
 ``velocity`` (N, 2) m/s, ``body_pos`` (N, 3), ``body_quat`` (N, 4), ``body_linvel`` (N, 3),
 ``body_angvel`` (N, 3), ``joint_pos`` / ``joint_vel`` (N, J): the meanings of
 :data:`neuronav.backend.ARTICULATED_SENSORS`. Commands: ``joint_targets`` (N, J) rad. All ants
-must have the same J. Not offered here (the single-ant :class:`~backends.mujoco.MujocoBackend` has
+must have the same J. Not offered here (the single-ant :class:`~neuronav.backends.mujoco.MujocoBackend` has
 them): contact forces, adhesion, odour and wind, cameras and videos; a world with ``adhesion_n`` > 0
 is refused. A reset stands each ant on the terrain under its start (``spawn_height_m`` above
 :meth:`Ground.height_at`) without the single-ant backend's lift out of rough ground.
@@ -41,8 +41,10 @@ from dataclasses import replace  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from backends.mujoco.backend import _FATAL_INDEX, _FATAL_WARNINGS  # noqa: E402
-from backends.mujoco.mjcf import (  # noqa: E402
+from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities  # noqa: E402
+from neuronav.backend import BackendBase, Capabilities, check_seed, start_pose  # noqa: E402
+from neuronav.backends.mujoco.backend import _FATAL_INDEX, _FATAL_WARNINGS  # noqa: E402
+from neuronav.backends.mujoco.mjcf import (  # noqa: E402
     WORLD_CONTYPE,
     ModelNames,
     _body,
@@ -51,8 +53,6 @@ from backends.mujoco.mjcf import (  # noqa: E402
     _visual,
     _world,
 )
-from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities  # noqa: E402
-from neuronav.backend import BackendBase, Capabilities, check_seed, start_pose  # noqa: E402
 from neuronav.body import BodySpec  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
 from neuronav.trail_floor import trail_floor  # noqa: E402

@@ -1,9 +1,9 @@
 """PyBullet backend: one articulated :class:`~neuronav.body.BodySpec` in a :class:`~neuronav.world.World`.
 
-Registered as ``pybullet`` (entry point ``backends.pybullet:PybulletBackend``). The body is a URDF
-generated from the spec (:mod:`backends.pybullet.urdf`); see :mod:`backends.pybullet.backend`.
+Registered as ``pybullet`` (entry point ``neuronav.backends.pybullet:PybulletBackend``). The body is a URDF
+generated from the spec (:mod:`neuronav.backends.pybullet.urdf`); see :mod:`neuronav.backends.pybullet.backend`.
 """
 
-from backends.pybullet.backend import PybulletBackend
+from neuronav.backends.pybullet.backend import PybulletBackend
 
 __all__ = ["PybulletBackend"]

@@ -4,7 +4,7 @@ Design
 ------
 - One DIRECT-mode physics client per instance; every call passes ``physicsClientId`` (no global
   state), so several instances live side by side in one process. ``close()`` disconnects.
-- The body is a URDF generated from the spec (:mod:`backends.pybullet.urdf`), written to a
+- The body is a URDF generated from the spec (:mod:`neuronav.backends.pybullet.urdf`), written to a
   temporary directory that ``close()`` removes. Inertia comes from the file
   (``URDF_USE_INERTIA_FROM_FILE``), i.e. from :meth:`Segment.inertial`, as in every backend.
 - ``reset()`` rebuilds the whole simulation (``resetSimulation``, then body, ground, objects): a
@@ -38,7 +38,7 @@ Design
   joints and the whole body feel the disc too). Light segments with stiff gains need it to stay
   stable. Self-collisions are off (PyBullet's default for URDFs).
 - Contact sites: PyBullet reports contacts per link, so each contact geom has a link of its own
-  (:mod:`backends.pybullet.urdf`); ``contact_force`` sums normal and both friction forces of that
+  (:mod:`neuronav.backends.pybullet.urdf`); ``contact_force`` sums normal and both friction forces of that
   link's contact points: the force on the geom, world frame. Adhesion presses each touching
   contact geom (a contact point within 1 mm) into the surface along minus the mean contact normal,
   at the geom's centre, every PyBullet step.
@@ -54,26 +54,26 @@ Design
 - The floor in the physics client looks as ``World.appearance`` says (plain ``ground_rgb``, or its
   checker as one texture over ``Ground.size_m``, squares aligned with the world axes) so that motion
   shows in videos, as on MuJoCo; a world's odour trails are drawn over it (:mod:`neuronav.trail_floor`;
-  :mod:`backends.pybullet.scene`), and body cameras paint them on their floor pixels.
+  :mod:`neuronav.backends.pybullet.scene`), and body cameras paint them on their floor pixels.
 - What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in
   :attr:`warnings`, as are the notes above and the reason of a divergence.
 - Body cameras follow :mod:`neuronav.vision` (planar views, spherical ones from cube faces, the sky,
   the grey sensor: :class:`~neuronav.articulated.ArticulatedBackend`); this backend renders each
-  view flat-shaded with TinyRenderer (:mod:`backends.pybullet.camera`) in a second DIRECT client
-  that holds only the world's looks (:func:`backends.pybullet.scene.build_vision_world`: the ground
+  view flat-shaded with TinyRenderer (:mod:`neuronav.backends.pybullet.camera`) in a second DIRECT client
+  that holds only the world's looks (:func:`neuronav.backends.pybullet.scene.build_vision_world`: the ground
   reaching ``vision.GROUND_REACH_M``), built on the first body-camera render: the body is not in
   the picture, and a render does not pay for its triangles. A camera with ``sees_body`` renders
   there too, with a copy of the body (loaded on first use) put in the physics body's pose; it is
   parked 10 km under the ground otherwise. ``set_scene_yaw`` moves the objects in both clients
-  (:func:`backends.pybullet.scene.place_objects`; in the physics client they keep colliding), and a
+  (:func:`neuronav.backends.pybullet.scene.place_objects`; in the physics client they keep colliding), and a
   reset, which rebuilds the physics client, puts them back at the current scene yaw.
 - ``"follow"`` renders :func:`neuronav.articulated.follow_view` in the physics client, lit as
   TinyRenderer lights it, with the World's sky where nothing was drawn.
 
 Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
 framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to PyBullet,
-with :mod:`backends.pybullet.scene` (ground, objects), :mod:`backends.pybullet.camera` (rendering),
-:mod:`backends.pybullet.urdf` (the body) and :mod:`backends.pybullet.engine` (the import, C output).
+with :mod:`neuronav.backends.pybullet.scene` (ground, objects), :mod:`neuronav.backends.pybullet.camera` (rendering),
+:mod:`neuronav.backends.pybullet.urdf` (the body) and :mod:`neuronav.backends.pybullet.engine` (the import, C output).
 """
 
 from __future__ import annotations
@@ -85,12 +85,12 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from backends.pybullet.camera import render_flat, render_follow
-from backends.pybullet.engine import EngineOutput, configure_client, pb
-from backends.pybullet.scene import build_ground, build_object, build_vision_world, place_objects
-from backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.articulated import ArticulatedBackend, FollowView
 from neuronav.backend import quat_product
+from neuronav.backends.pybullet.camera import render_flat, render_follow
+from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
+from neuronav.backends.pybullet.scene import build_ground, build_object, build_vision_world, place_objects
+from neuronav.backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.body import BodySpec, Camera, quat_to_matrix
 from neuronav.errors import ConfigError, SimulationError
 from neuronav.vision import View, check_camera
@@ -139,7 +139,7 @@ class PybulletBackend(ArticulatedBackend):
         Constraint-solver iterations per step.
     armature_as_inertia : bool
         PyBullet has no joint armature: add it to the link inertia as a rotor disc on the joint axis
-        (default), or ignore it (see :func:`backends.pybullet.urdf.body_to_urdf`).
+        (default), or ignore it (see :func:`neuronav.backends.pybullet.urdf.body_to_urdf`).
     substeps : int or None
         PyBullet steps per ``timestep_s``; None (default) picks the fewest that keep explicit joint
         control stable for the loaded body (see the module docstring).

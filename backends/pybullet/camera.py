@@ -8,7 +8,7 @@ What TinyRenderer does and how it is made to follow :mod:`neuronav.vision`:
   centre; the matrix shifts the image by half a pixel in x and y so that pixel (r, c) shows what
   lies along the ray through its centre (checked against the geometry of a box's edges).
 - **Flat shading.** ``lightAmbientCoeff`` 1, diffuse and specular 0, no shadow: a surface shows
-  ``int(255 * rgba)`` (TinyRenderer truncates; :func:`backends.pybullet.scene.exact_rgba` asks for
+  ``int(255 * rgba)`` (TinyRenderer truncates; :func:`neuronav.backends.pybullet.scene.exact_rgba` asks for
   the middle of each 8-bit step, so the pixel is ``round(255 * rgba)``).
 - **Ground.** TinyRenderer's texture coordinates go wrong across the large triangles of a ground
   that reaches hundreds of metres, so body cameras do not use a texture: the ground's pixels
@@ -28,8 +28,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from backends.pybullet.engine import pb
 from neuronav.articulated import FollowView
+from neuronav.backends.pybullet.engine import pb
 from neuronav.body import Camera
 from neuronav.trail_floor import trail_floor
 from neuronav.vision import FAR_M, NEAR_M, View, pixel_directions, sky_rgb, to_uint8

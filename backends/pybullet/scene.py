@@ -8,13 +8,13 @@ Two builds of one :class:`World`:
   every backend: ``ground_rgb`` where ``floor(x / checker_m) + floor(y / checker_m)`` is even);
 - :func:`build_vision_world` in a render-only client that holds no body: looks only, the ground
   reaching :data:`neuronav.vision.GROUND_REACH_M` from the origin. Body cameras colour the ground
-  themselves (:mod:`backends.pybullet.camera`), so its look there does not matter.
+  themselves (:mod:`neuronav.backends.pybullet.camera`), so its look there does not matter.
 
 Odour trails (:mod:`neuronav.trail_floor`, flat grounds only): in the physics client, a visual-only
 mesh (no collision shape: nothing touches it, no ray hits it) over the floor image's rectangle,
 ``TRAIL_LIFT_M`` above z = 0, textured with the image (written once per image into ``folder``
 as a PNG); in the render-only client nothing: body cameras colour the floor's pixels from the
-image themselves (:mod:`backends.pybullet.camera`), as they colour the checker.
+image themselves (:mod:`neuronav.backends.pybullet.camera`), as they colour the checker.
 
 TinyRenderer truncates ``255 * rgba`` to an integer; :func:`exact_rgba` asks for the middle of the
 colour's 8-bit step, so that a surface shows ``round(255 * rgba)``, as on the other engines.
@@ -28,7 +28,7 @@ import zlib
 
 import numpy as np
 
-from backends.pybullet.engine import pb
+from neuronav.backends.pybullet.engine import pb
 from neuronav.trail_floor import TrailFloor, ground_rgb_at, png_bytes, trail_floor
 from neuronav.vision import GROUND_REACH_M, to_uint8
 from neuronav.world import World, WorldObject

@@ -1,13 +1,13 @@
 """Several ants in one PyBullet world: one physics client, one multibody per ant, ants colliding.
 
-:class:`PybulletSwarm` is the PyBullet twin of :class:`backends.mujoco.swarm.MujocoSwarm`: a
+:class:`PybulletSwarm` is the PyBullet twin of :class:`neuronav.backends.mujoco.swarm.MujocoSwarm`: a
 :class:`~neuronav.world.World` with N :class:`~neuronav.body.BodySpec`\\ s, read and written with a
 leading agent axis (``read`` (N, ...), ``write`` (N, ...), ``reset`` one start per ant), so a brain
 compiled with ``batch=N`` binds the same way as on the kinematic backend. Ant i is the multibody
-:attr:`PybulletSwarm.ants` [i], loaded from the URDF of its spec (:mod:`backends.pybullet.urdf`);
+:attr:`PybulletSwarm.ants` [i], loaded from the URDF of its spec (:mod:`neuronav.backends.pybullet.urdf`);
 its parts go by the spec's names, prefixed ``ant{i}/`` where the swarm names them.
 
-As in the single-ant :class:`~backends.pybullet.PybulletBackend`: every reset rebuilds the
+As in the single-ant :class:`~neuronav.backends.pybullet.PybulletBackend`: every reset rebuilds the
 simulation (bodies first, then the ground; the same calls give the same trajectory), position
 control is ``clip(kp (target - q) - kd q', ±max_torque)`` applied through ``TORQUE_CONTROL`` at
 every PyBullet step, and each ``timestep`` runs as many PyBullet steps as the single-ant backend
@@ -30,12 +30,12 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from backends.pybullet.backend import DIVERGED_VELOCITY, GRAVITY_M_S2, PybulletBackend
-from backends.pybullet.engine import EngineOutput, configure_client, pb
-from backends.pybullet.scene import build_ground, build_object
-from backends.pybullet.urdf import body_to_urdf
 from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities
 from neuronav.backend import BackendBase, Capabilities, check_seed, quat_product, start_pose
+from neuronav.backends.pybullet.backend import DIVERGED_VELOCITY, GRAVITY_M_S2, PybulletBackend
+from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
+from neuronav.backends.pybullet.scene import build_ground, build_object
+from neuronav.backends.pybullet.urdf import body_to_urdf
 from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.errors import ConfigError, PortError, SimulationError
 from neuronav.world import World

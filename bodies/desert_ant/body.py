@@ -37,7 +37,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from bodies.desert_ant import solved
+from neuronav.bodies.desert_ant import solved
 from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix
 from neuronav.errors import ConfigError
 
@@ -169,7 +169,7 @@ def _claw_depth(tilt_rad: float, anchor_z: float, lengths, rest) -> float:
 def _solve_tilt(target_depth: float, anchor_z: float, lengths, rest) -> float:
     """The coxa tilt putting the claw at ``target_depth``; the deepest reachable tilt if it cannot.
 
-    Solved by scipy; the default ant's tilts are kept (:mod:`bodies.desert_ant.solved`).
+    Solved by scipy; the default ant's tilts are kept (:mod:`neuronav.bodies.desert_ant.solved`).
     """
     return float(solved.lookup("tilts", solved.tilt_key(target_depth, anchor_z, lengths, rest),
                                lambda: _solve_tilt_scipy(target_depth, anchor_z, lengths, rest)))

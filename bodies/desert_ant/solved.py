@@ -11,7 +11,7 @@ scipy and requires it bit for bit, and requires the default ant built from the t
 one built by scipy alone.
 
 Rewrite the table (after a change to the ant's geometry) with
-``python -m bodies.desert_ant.solved --write``.
+``python -m neuronav.bodies.desert_ant.solved --write``.
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def lookup(kind: str, key: str, solve: Callable[[], object]):
 def solve_everything() -> dict:
     """Build the default ant with scipy alone and return every value it solved, by key."""
     global _recording
-    from bodies.desert_ant.body import desert_ant
+    from neuronav.bodies.desert_ant.body import desert_ant
 
     _recording = {"tilts": {}, "quats": {}}
     try:
@@ -82,7 +82,7 @@ def main() -> None:
     # Run as ``python -m`` this file is ``__main__``; the ant records into the package's module.
     import importlib
 
-    solved = importlib.import_module("bodies.desert_ant.solved").solve_everything()
+    solved = importlib.import_module("neuronav.bodies.desert_ant.solved").solve_everything()
     text = json.dumps({"tilts": solved["tilts"], "quats": {k: list(v) for k, v in solved["quats"].items()}},
                       indent=1, sort_keys=True) + "\n"
     if args.write:

@@ -1,21 +1,21 @@
 """Learning environments over neuronav's bodies, worlds and scenarios.
 
-:mod:`scenarios.envs.tasks` holds the engine-free task definitions (start, observations, reward,
-termination) that every adapter shares; :mod:`scenarios.envs.gym_env` runs them as Gymnasium
+:mod:`neuronav.scenarios.envs.tasks` holds the engine-free task definitions (start, observations, reward,
+termination) that every adapter shares; :mod:`neuronav.scenarios.envs.gym_env` runs them as Gymnasium
 environments. Importing this package registers them with Gymnasium (when it is installed, the
 ``gym`` extra) under versioned ids (:data:`GYM_IDS`)::
 
     import gymnasium
-    import scenarios.envs  # noqa: F401  (registers the ids)
+    import neuronav.scenarios.envs  # noqa: F401  (registers the ids)
     env = gymnasium.make("neuronav/AntHoming-v0", backend="mujoco")
 
-Gymnasium 1.x loads no plugin entry points; ``gymnasium.make("scenarios.envs:neuronav/AntHoming-v0")``
+Gymnasium 1.x loads no plugin entry points; ``gymnasium.make("neuronav.scenarios.envs:neuronav/AntHoming-v0")``
 imports this package itself, so no import is needed in that form.
 """
 
 from __future__ import annotations
 
-# Gymnasium id -> task name (scenarios.envs.tasks.TASKS).
+# Gymnasium id -> task name (neuronav.scenarios.envs.tasks.TASKS).
 GYM_IDS = {
     "neuronav/AntHoming-v0": "homing",
     "neuronav/AntBeacon-v0": "beacon",
@@ -29,7 +29,7 @@ def register_gym_envs() -> None:
 
     for env_id, task in GYM_IDS.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(env_id, entry_point="scenarios.envs.gym_env:NeuronavEnv", kwargs={"task": task})
+            gymnasium.register(env_id, entry_point="neuronav.scenarios.envs.gym_env:NeuronavEnv", kwargs={"task": task})
 
 
 try:

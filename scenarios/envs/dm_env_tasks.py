@@ -1,13 +1,14 @@
-"""dm_control environments (``dm_env`` API) of the navigation tasks: one per task of :data:`scenarios.envs.tasks.TASKS`.
+"""dm_control environments (``dm_env`` API) of the navigation tasks: one per task of
+:data:`neuronav.scenarios.envs.tasks.TASKS`.
 
 ``load(name, world_seed=0, random_state=None, time_limit_s=None, **settings)`` builds the task ``name`` (``homing``,
 ``beacon``, ``plume``) with its scenario's settings (the keys of ``neuronav run ... --set``) and
 returns a ``dm_control.composer.Environment``: the desert ant (a composer entity) walked by the FK
 tripod gait in the task's world (a composer arena), the task's observed ports and computed
 observations as observables, its reward and termination (see
-:mod:`backends.dm_control.composer_env`)::
+:mod:`neuronav.backends.dm_control.composer_env`)::
 
-    from scenarios.envs.dm_env_tasks import load
+    from neuronav.scenarios.envs.dm_env_tasks import load
     env = load("homing")
     timestep = env.reset()                       # timestep.observation["home_vector"]: (2,) m, body frame
     while not timestep.last():
@@ -15,7 +16,7 @@ observations as observables, its reward and termination (see
 
 The action and its bounds, the clocks (2 ms physics or the scenario's, 8 ms gait, 0.64 s per action)
 and the start pose follow the Gymnasium environment's locomotion mode
-(:mod:`scenarios.envs.gym_env`); the episode seed comes from the environment's ``random_state``.
+(:mod:`neuronav.scenarios.envs.gym_env`); the episode seed comes from the environment's ``random_state``.
 """
 
 from __future__ import annotations
@@ -24,13 +25,13 @@ from typing import Any
 
 import numpy as np
 
-from backends.dm_control.composer_env import environment
-from backends.kinematic import KinematicBackend
-from bodies.desert_ant import desert_ant
-from bodies.gaits import make_gait
-from scenarios.embodied_homing import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
-from scenarios.envs.tasks import TASKS, make_task
-from scenarios.visual_setup import CONTROL_S, CYCLE_S
+from neuronav.backends.dm_control.composer_env import environment
+from neuronav.backends.kinematic import KinematicBackend
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.bodies.gaits import make_gait
+from neuronav.scenarios.embodied_homing import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
+from neuronav.scenarios.envs.tasks import TASKS, make_task
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S
 
 # Eq. 3.7's largest stride (5° + 20°): the action's upper stride, as in the Gymnasium environment.
 MAX_STRIDE_RAD = float(MIN_STRIDE_RAD + EXTRA_STRIDE_RAD)

@@ -1,8 +1,8 @@
-"""A Gymnasium environment over any backend: one task (:mod:`scenarios.envs.tasks`), one ant.
+"""A Gymnasium environment over any backend: one task (:mod:`neuronav.scenarios.envs.tasks`), one ant.
 
 ``NeuronavEnv(task="homing", backend="kinematic", action_mode="locomotion", render_mode=None,
 world_seed=0, **settings)`` runs a task on a registered backend with the body the scenarios use
-(:func:`scenarios.visual_setup.make_engine`): the desert ant walked by the FK tripod gait on a
+(:func:`neuronav.scenarios.visual_setup.make_engine`): the desert ant walked by the FK tripod gait on a
 physics backend, the kinematic unicycle (carrying the ant's cameras and antennae) on ``kinematic``.
 ``settings`` are the task's scenario settings (the keys of ``neuronav run ... --set``).
 
@@ -26,7 +26,7 @@ all follow from it, so the same seed gives the same episode bit for bit. ``info`
 to the goal, ``time_s`` of the episode.
 
 ``render_mode="rgb_array"``: the follow camera on a physics backend (640 × 480), a top view of the
-agent, its goal and its path on the kinematic backend (:func:`scenarios.envs.top_view.top_view`).
+agent, its goal and its path on the kinematic backend (:func:`neuronav.scenarios.envs.top_view.top_view`).
 """
 
 from __future__ import annotations
@@ -41,10 +41,10 @@ from neuronav import registry
 from neuronav.errors import ConfigError, PortError
 from neuronav.loop import AgentLoop, Clocks
 from neuronav.ports import SensorSpec
-from scenarios.embodied_homing import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
-from scenarios.envs.tasks import NavigationTask, make_task, read_state
-from scenarios.envs.top_view import top_view
-from scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
+from neuronav.scenarios.embodied_homing import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
+from neuronav.scenarios.envs.tasks import NavigationTask, make_task, read_state
+from neuronav.scenarios.envs.top_view import top_view
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 
 ACTION_MODES = ("locomotion", "joints")
 # Bounds of sensors whose spec has no range, by their units.

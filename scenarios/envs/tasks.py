@@ -1,6 +1,6 @@
 """Engine-free navigation tasks: what the learning environments (Gymnasium, dm_control) share.
 
-A task says what an episode is; an adapter (:mod:`scenarios.envs.gym_env`, the dm_control tasks)
+A task says what an episode is; an adapter (:mod:`neuronav.scenarios.envs.gym_env`, the dm_control tasks)
 only runs it on a backend, so a reward is written once. Each task wraps one scenario's settings
 (its config dataclass, validated by :func:`neuronav.config.build_config`: the same keys as
 ``neuronav run ... --set``) and reuses that scenario's world:
@@ -12,9 +12,9 @@ task        world and start                             goal (reward: progress) 
             where a seeded foraging walk ended (at
             least 3 nest radii from the nest)
 ``beacon``  the visual beacon's landmark and forest     the landmark (0, d)         ``success_radius_m``
-            (:func:`scenarios.visual_beacon.beacon_world`)
+            (:func:`neuronav.scenarios.visual_beacon.beacon_world`)
 ``plume``   the plume-tracking arena and plume          the odour source            ``success_radius_m``
-            (:func:`scenarios.plume_tracking.plume_world`)
+            (:func:`neuronav.scenarios.plume_tracking.plume_world`)
 ==========  ==========================================  ==========================  ==================
 
 The API, all a task offers:
@@ -47,17 +47,17 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from backends.kinematic import default_calibration
+from neuronav.backends.kinematic import default_calibration
 from neuronav.config import build_config
 from neuronav.errors import ConfigError
 from neuronav.ports import SensorSpec
+from neuronav.scenarios.embodied_homing import CONTROL_S, CYCLE_S
+from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
+from neuronav.scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_world, start_pose
+from neuronav.scenarios.visual_beacon import START_HEADINGS_RAD, VisualBeacon, VisualBeaconConfig, beacon_world
 from neuronav.world import Ground, World
-from scenarios.embodied_homing import CONTROL_S, CYCLE_S
-from scenarios.path_integration import PathIntegration, PathIntegrationConfig
-from scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_world, start_pose
-from scenarios.visual_beacon import START_HEADINGS_RAD, VisualBeacon, VisualBeaconConfig, beacon_world
 
-# The embodied homing scenario's floor (scenarios.embodied_homing.embodied_trial).
+# The embodied homing scenario's floor (neuronav.scenarios.embodied_homing.embodied_trial).
 HOMING_FLOOR_M = 80.0
 # A homing episode starts at least this many nest radii from the nest (else it would start home).
 MIN_START_RADII = 3.0
@@ -154,7 +154,7 @@ def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: flo
                   attempt: int = 0) -> tuple[np.ndarray, float]:
     """The end of embodied homing's foraging walk, engine-free: (position (2,) m, heading rad).
 
-    The same walk as :class:`scenarios.embodied_homing.HomingBrain` commands (from the nest, heading
+    The same walk as :class:`neuronav.scenarios.embodied_homing.HomingBrain` commands (from the nest, heading
     uniform in [0, 2π), a turn command ``0.7 turn + N(0, turn_std)`` per gait cycle at a fixed
     stride), moved as the kinematic unicycle moves (its calibration's speed and turn rate, 8 ms steps).
     ``attempt`` 0 draws trial ``seed``'s walk as the scenario does; other attempts draw other walks.
@@ -267,7 +267,7 @@ class BeaconTask(NavigationTask):
         return beacon_world(self.config, seed)
 
     def start(self, seed: int) -> Start:
-        rng = np.random.default_rng([seed, 4])  # as scenarios.visual_beacon.beacon_trial draws it
+        rng = np.random.default_rng([seed, 4])  # as neuronav.scenarios.visual_beacon.beacon_trial draws it
         return Start(np.zeros(2), float(rng.uniform(*START_HEADINGS_RAD["both"])))
 
 

@@ -7,13 +7,13 @@ import sys
 
 import pytest
 
-import scenarios.calibrate_unicycle as calibrate
+import neuronav.scenarios.calibrate_unicycle as calibrate
 
 SHIPPED = calibrate.DATA_DIR / "unicycle_mujoco.json"
 
 
 def run_module(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "scenarios.calibrate_unicycle", *args], capture_output=True,
+    return subprocess.run([sys.executable, "-m", "neuronav.scenarios.calibrate_unicycle", *args], capture_output=True,
                           text=True, timeout=120, cwd=cwd)
 
 

@@ -11,8 +11,8 @@ standing ant presses on the floor with its weight on both.
 import numpy as np
 import pytest
 
-from bodies.desert_ant import desert_ant
 from neuronav import registry
+from neuronav.bodies.desert_ant import desert_ant
 from neuronav.world import World
 
 ENGINES = ["mujoco", "pybullet"]
@@ -83,7 +83,7 @@ def test_standing_ant_carries_its_weight_on_its_claws(engine_name):
 @pytest.mark.parametrize("engine_name", ENGINES)
 def test_leg_scale_lengthens_and_weighs_the_legs_on_both_engines(engine_name):
     """The ``leg_scale`` body option, as each engine built it: longer, heavier legs; nothing else changes."""
-    from bodies.desert_ant import LEGS
+    from neuronav.bodies.desert_ant import LEGS
 
     bodies = {scale: desert_ant(leg_length_factors=scale) for scale in (1.0, 1.25)}
     built = {scale: summary(engine_name, body) for scale, body in bodies.items()}
@@ -108,7 +108,7 @@ def test_longer_legs_stand_taller_and_walk_faster(engine_name):
     and walk 0.34 / 0.50 m/s on MuJoCo, 0.33 / 0.51 m/s on PyBullet."""
     from dataclasses import replace
 
-    from scenarios.locomotion import LocomotionConfig, run_trial
+    from neuronav.scenarios.locomotion import LocomotionConfig, run_trial
 
     if not registry.availability("backend", engine_name)[0]:
         pytest.skip(f"{engine_name} is not installed")

@@ -13,7 +13,7 @@ import pytest
 from neuronav import registry
 from neuronav.config import apply_overrides
 from neuronav.runner import load_scenario, run_trials
-from scenarios.cue_integration import CueIntegrationConfig
+from neuronav.scenarios.cue_integration import CueIntegrationConfig
 
 BACKENDS = ("kinematic", "mujoco", "dm_control", "pybullet")
 

@@ -3,16 +3,16 @@
 import numpy as np
 import pytest
 
-from bodies.desert_ant import desert_ant
-from bodies.gaits import make_gait
-from brains.cx import decode_home_vector, stone2017
 from neuronav import registry
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.bodies.gaits import make_gait
+from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import apply_overrides
 from neuronav.loop import AgentLoop, Clocks
 from neuronav.runner import load_scenario, run_trials
+from neuronav.scenarios.embodied_homing import CYCLE_S, steering_command
+from neuronav.scenarios.path_integration import PathIntegrationConfig
 from neuronav.world import World
-from scenarios.embodied_homing import CYCLE_S, steering_command
-from scenarios.path_integration import PathIntegrationConfig
 
 PHYSICS = ["mujoco", "pybullet"]
 SHORT = {"outbound_s": 8.0, "homing_timeout_s": 30.0}

@@ -5,18 +5,18 @@ import sys
 import numpy as np
 import pytest
 
-import bodies  # noqa: F401
-from bodies.antennae import AntennaSweep, SweptAntennaeGait
-from bodies.gaits import make_gait
+import neuronav.bodies  # noqa: F401
 from neuronav import registry
+from neuronav.bodies.antennae import AntennaSweep, SweptAntennaeGait
+from neuronav.bodies.gaits import make_gait
 from neuronav.chemistry import OdourScene
 from neuronav.loop import AgentLoop, Clocks
 from neuronav.odour import straight_trail
 from neuronav.plume import OdourSource, PlumeConfig
+from neuronav.scenarios.visual_setup import make_engine
 from neuronav.world import World
-from scenarios.visual_setup import make_engine
 
-desert_ant = sys.modules["bodies.desert_ant.body"].desert_ant
+desert_ant = sys.modules["neuronav.bodies.desert_ant.body"].desert_ant
 BACKENDS = ("kinematic", "mujoco", "pybullet")
 STAND_S = 0.48  # 60 control steps of 8 ms, 240 physics steps of 2 ms
 

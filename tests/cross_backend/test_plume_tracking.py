@@ -8,11 +8,11 @@ full protocol (10 trials with odour, 10 without, 60 s each) on every backend is 
 import numpy as np
 import pytest
 
-from brains.plume_tracking import ORIENT, SEARCH
+from neuronav.brains.plume_tracking import ORIENT, SEARCH
 from neuronav.chemistry import Chemistry
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_trial, plume_world, start_pose
+from neuronav.scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_trial, plume_world, start_pose
 
 UPWIND_RAD = -np.pi / 2  # against the wind along +x, clockwise from +y
 

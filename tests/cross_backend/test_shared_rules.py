@@ -146,7 +146,7 @@ def test_ground_height_is_one_cached_vectorised_lookup():
 @pytest.mark.parametrize("where", ["floor", "wall"])
 def test_follow_camera_keeps_the_whole_ant_in_view(name, where):
     require(name)
-    from bodies.desert_ant import desert_ant
+    from neuronav.bodies.desert_ant import desert_ant
 
     body = desert_ant()
     wall = Ground("wall", wall_distance_m=1.0)
@@ -173,7 +173,7 @@ def test_follow_camera_keeps_the_whole_ant_in_view(name, where):
 
 
 def test_follow_view_is_the_same_on_both_engines():
-    from bodies.desert_ant import desert_ant
+    from neuronav.bodies.desert_ant import desert_ant
 
     views = {}
     for name in BACKENDS:

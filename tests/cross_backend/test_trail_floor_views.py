@@ -53,8 +53,8 @@ def engine_and_body(name: str, camera_body: str = "post"):
                 "down", "base", (0.0, 0.0, EYE_Z_M), DOWN.quat, width_px=DOWN.width_px, height_px=DOWN.height_px,
                 fov_rad=DOWN.fov_rad),))
         return engine, post()
-    from bodies.desert_ant import desert_ant
-    from scenarios.visual_setup import point_agent_cameras
+    from neuronav.bodies.desert_ant import desert_ant
+    from neuronav.scenarios.visual_setup import point_agent_cameras
 
     if name == "kinematic":
         return engine, PointAgents(count=1, mode="unicycle", cameras=point_agent_cameras(desert_ant()))
@@ -150,8 +150,8 @@ def test_the_follow_view_shows_the_trail_beside_the_ant(name):
 
 @pytest.mark.parametrize("name", PHYSICS)
 def test_the_drawn_trail_touches_no_physics(name):
-    from bodies.desert_ant import desert_ant
-    from bodies.gaits import make_gait
+    from neuronav.bodies.desert_ant import desert_ant
+    from neuronav.bodies.gaits import make_gait
 
     # The trail runs under the ant: the walk is the same to the bit with and without it.
     trail = straight_trail((-3.0, 0.0), (3.0, 0.0), "wide")
@@ -172,7 +172,7 @@ def test_the_drawn_trail_touches_no_physics(name):
 
 
 def test_a_world_without_trails_builds_nothing_for_them():
-    from backends.mujoco.mjcf import TRAIL_GEOM, compile_model
+    from neuronav.backends.mujoco.mjcf import TRAIL_GEOM, compile_model
 
     require("mujoco")
     mujoco = pytest.importorskip("mujoco")
@@ -223,7 +223,7 @@ def test_the_videos_checker_floor_has_squares_of_checker_m_with_the_shared_parit
 
 def test_the_mjcf_text_of_a_world_with_trails_names_their_texture_file(tmp_path):
     mujoco = pytest.importorskip("mujoco")
-    from backends.mujoco.mjcf import compile_model, to_xml
+    from neuronav.backends.mujoco.mjcf import compile_model, to_xml
     from neuronav.errors import ConfigError
 
     world = World(odour=OdourScene(trails=(BENT,)))

@@ -2,18 +2,18 @@
 PyBullet and the kinematic ray caster (±1 px), and their Zernike compass phases agree (±3°).
 
 The physics ants stand at rest (just reset, no step); the kinematic unicycle carries the ant's own
-cameras where they sit on the standing ant (:func:`scenarios.visual_setup.point_agent_cameras`).
+cameras where they sit on the standing ant (:func:`neuronav.scenarios.visual_setup.point_agent_cameras`).
 """
 
 import numpy as np
 import pytest
 
-from bodies.desert_ant import desert_ant
-from brains.vision import ZernikeBasis
 from neuronav import registry
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.brains.vision import ZernikeBasis
+from neuronav.scenarios.visual_setup import point_agent_cameras
 from neuronav.scenery import compass_scene, vision_appearance
 from neuronav.world import PointAgents, World, WorldObject
-from scenarios.visual_setup import point_agent_cameras
 
 BACKENDS = ("kinematic", "mujoco", "pybullet")
 

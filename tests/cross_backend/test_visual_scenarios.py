@@ -15,8 +15,8 @@ import pytest
 from neuronav import registry
 from neuronav.config import apply_overrides
 from neuronav.runner import load_scenario, run_trials
-from scenarios.visual_beacon import EYE_MODES, VisualBeaconConfig
-from scenarios.visual_compass import VisualCompassConfig
+from neuronav.scenarios.visual_beacon import EYE_MODES, VisualBeaconConfig
+from neuronav.scenarios.visual_compass import VisualCompassConfig
 
 
 def available(name):

@@ -7,9 +7,9 @@ pose: with its pads on it stays there, with them off it falls, on MuJoCo and PyB
 import numpy as np
 import pytest
 
-from bodies.desert_ant import desert_ant
 from neuronav import registry
 from neuronav.backend import start_pose
+from neuronav.bodies.desert_ant import desert_ant
 from neuronav.body import quat_to_matrix
 from neuronav.errors import ConfigError, PortError
 from neuronav.world import Ground, World
@@ -104,7 +104,7 @@ def test_pads_are_compliant_only_in_worlds_with_adhesion():
         with backend:
             assert backend.model.opt.impratio == impratio
     pybullet = pytest.importorskip("pybullet")
-    from backends.pybullet.backend import PAD_DAMPING_N_S_M, PAD_STIFFNESS_N_M
+    from neuronav.backends.pybullet.backend import PAD_DAMPING_N_S_M, PAD_STIFFNESS_N_M
 
     for adhesion_n in (0.0, 50.0):
         backend, _, _ = engine("pybullet", adhesion_n)

@@ -1,19 +1,19 @@
-"""Antennae that stay fixed or sweep (bodies.antennae), and the kinematic body's antenna tips."""
+"""Antennae that stay fixed or sweep (neuronav.bodies.antennae), and the kinematic body's antenna tips."""
 
 import sys
 
 import numpy as np
 import pytest
 
-import bodies  # noqa: F401  (registers the desert ant's modules)
-from backends.kinematic import KinematicBackend
-from bodies.antennae import AntennaSweep, AntennaYawHook, SweptAntennaeGait, point_antennae
-from bodies.gaits import make_gait
+import neuronav.bodies  # noqa: F401  (registers the desert ant's modules)
+from neuronav.backends.kinematic import KinematicBackend
+from neuronav.bodies.antennae import AntennaSweep, AntennaYawHook, SweptAntennaeGait, point_antennae
+from neuronav.bodies.gaits import make_gait
 from neuronav.errors import ConfigError
 from neuronav.loop import AgentLoop, Clocks
 from neuronav.world import PointAgents, PointAntenna, World
 
-desert_ant = sys.modules["bodies.desert_ant.body"].desert_ant
+desert_ant = sys.modules["neuronav.bodies.desert_ant.body"].desert_ant
 
 
 def _offsets(sweep: AntennaSweep, seconds: float, dt_s: float = 0.008) -> np.ndarray:

@@ -5,8 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from brains.cx import stone2017
 from neuronav import Circuit, CircuitError, MotorSpec, PortError, SensorSpec, bind
+from neuronav.brains.cx import stone2017
 from neuronav.plotting import plot_circuit, plot_connectivity
 
 X = SensorSpec("x", (1,), "")

@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from backends.kinematic import KinematicBackend
-from brains.cx import stone2017
 from neuronav import Circuit, SensorSpec
+from neuronav.backends.kinematic import KinematicBackend
+from neuronav.brains.cx import stone2017
 from neuronav.errors import CircuitError, ConfigError, NeuronavError, PortError
 from neuronav.world import PointAgents, World
 

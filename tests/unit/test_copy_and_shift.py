@@ -1,13 +1,13 @@
-"""Copy-and-shift steering (brains.steering): motor sign vs shift, closed-loop convergence, port errors."""
+"""Copy-and-shift steering (neuronav.brains.steering): motor sign vs shift, closed-loop convergence, port errors."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from brains import copy_and_shift, steering, stone2017
-from brains.steering import MAX_SHIFT, shift_toward, shift_weights
 from neuronav import ConfigError, NeuronavError, PortError
+from neuronav.brains import copy_and_shift, steering, stone2017
+from neuronav.brains.steering import MAX_SHIFT, shift_toward, shift_weights
 
 HEADINGS_RAD = np.deg2rad(np.arange(0.0, 360.0, 15.0))
 TARGETS_RAD = [0.0, 1.0, -2.5, np.pi]

@@ -10,8 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from brains.cx import stone2017
-from brains.cx_reference import StoneNumpy
+from neuronav.brains.cx import stone2017
+from neuronav.brains.cx_reference import StoneNumpy
 
 STEPS = 400
 TOLERANCE = 1e-12

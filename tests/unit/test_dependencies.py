@@ -1,4 +1,8 @@
-"""Imports flow one way: scenarios -> {brains, bodies, backends} -> neuronav; engines only in backends/."""
+"""Imports flow one way: scenarios -> {brains, bodies, backends} -> neuronav; engines only in backends/.
+
+The folders brains/, bodies/, backends/ and scenarios/ install as neuronav.brains, ... (package-dir in
+pyproject.toml); no top-level module of those names is installed.
+"""
 
 import ast
 import subprocess
@@ -19,14 +23,25 @@ PROJECT = set(ALLOWED)
 ENGINES = {"mujoco", "dm_control", "pybullet", "pybullet_data"}
 
 
+def layer(module: str) -> str:
+    """The layer of an imported module: ``neuronav.brains.cx`` -> ``brains``, ``neuronav.trials`` ->
+    ``neuronav``, anything else its top-level name (``mujoco.viewer`` -> ``mujoco``)."""
+    parts = module.split(".")
+    if parts[0] == "neuronav" and len(parts) > 1 and parts[1] in PROJECT:
+        return parts[1]
+    return parts[0]
+
+
 def imported_modules(path: Path) -> set[str]:
     tree = ast.parse(path.read_text(), filename=str(path))
     found = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            found |= {alias.name.split(".")[0] for alias in node.names}
+            found |= {layer(alias.name) for alias in node.names}
         elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            found.add(node.module.split(".")[0])
+            found.add(layer(node.module))
+            if node.module == "neuronav":  # from neuronav import brains
+                found |= {alias.name for alias in node.names if alias.name in PROJECT}
     return found
 
 
@@ -44,8 +59,9 @@ def test_import_direction(package):
 
 def test_the_checker_catches_a_wrong_import(tmp_path):
     bad = tmp_path / "bad.py"
-    bad.write_text("import scenarios.path_integration\nfrom mujoco import MjModel\n")
-    assert imported_modules(bad) == {"scenarios", "mujoco"}
+    bad.write_text("import neuronav.scenarios.path_integration\nfrom mujoco import MjModel\n"
+                   "from neuronav import backends\n")
+    assert imported_modules(bad) == {"scenarios", "mujoco", "neuronav", "backends"}
 
 
 # Heavy modules a command pays for only when it uses them: plotting (matplotlib), the time-series file
@@ -53,9 +69,10 @@ def test_the_checker_catches_a_wrong_import(tmp_path):
 # must load none of them, so `neuronav list` and bad-input exits stay fast and a run imports each
 # only when it draws, writes, distributes or simulates.
 LAZY = {"matplotlib", "h5py", "dask", "distributed", "mujoco", "pybullet", "dm_control", "PIL"}
-EAGER_IMPORTS = ["neuronav.cli", "neuronav.plotting", "scenarios.path_integration", "scenarios.locomotion",
-                 "scenarios.embodied_homing", "scenarios.path_integration_figures",
-                 "scenarios.embodied_homing_figures", "scenarios.locomotion_figures"]
+EAGER_IMPORTS = ["neuronav.cli", "neuronav.plotting", "neuronav.scenarios.path_integration",
+                 "neuronav.scenarios.locomotion",
+                 "neuronav.scenarios.embodied_homing", "neuronav.scenarios.path_integration_figures",
+                 "neuronav.scenarios.embodied_homing_figures", "neuronav.scenarios.locomotion_figures"]
 
 
 def loaded_top_level_modules(modules: list[str]) -> set[str]:
@@ -73,3 +90,12 @@ def test_importing_the_cli_and_scenarios_loads_no_heavy_module():
 
 def test_the_lazy_import_check_sees_a_heavy_import():
     assert "matplotlib" in loaded_top_level_modules(["matplotlib.figure"])
+
+
+@pytest.mark.parametrize("name", ["brains", "bodies", "backends", "scenarios"])
+def test_no_top_level_module_of_the_old_names_is_installed(tmp_path, name):
+    """Outside the repository (where the folders are not on the path) only ``neuronav.NAME`` imports."""
+    code = (f"import importlib.util as u; print(u.find_spec({name!r}) is None, "
+            f"u.find_spec('neuronav.{name}') is not None)")
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True)
+    assert done.stdout.split() == ["True", "True"], done.stdout + done.stderr

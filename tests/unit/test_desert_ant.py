@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from bodies.desert_ant import LEG_JOINTS, LEGS, desert_ant, leg_geometry
-from bodies.gaits import foot_position, segment_pose
+from neuronav.bodies.desert_ant import LEG_JOINTS, LEGS, desert_ant, leg_geometry
+from neuronav.bodies.gaits import foot_position, segment_pose
 from neuronav.body import quat_to_matrix
 from neuronav.errors import ConfigError
 
@@ -150,7 +150,7 @@ def test_antenna_length_and_mass_overrides(ant):
 def test_antenna_rest_yaw_sets_the_joints_and_brings_the_odour_sites_together():
     """The rest yaw is each antenna's yaw joint rest angle, mirrored; the odour sites at rest sit
     0.43 m apart at the default 0.6 rad, 0.23 m at 0.25 rad (docs of ``desert_ant``)."""
-    from bodies.antennae import point_antennae
+    from neuronav.bodies.antennae import point_antennae
 
     def spacing_m(body):
         left, right = point_antennae(body)

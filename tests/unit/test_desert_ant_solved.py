@@ -5,9 +5,9 @@ import sys
 
 import pytest
 
-from bodies.desert_ant import desert_ant
+from neuronav.bodies.desert_ant import desert_ant
 
-solved = sys.modules["bodies.desert_ant.solved"]
+solved = sys.modules["neuronav.bodies.desert_ant.solved"]
 
 
 def test_every_kept_value_is_what_scipy_solves_bit_for_bit():
@@ -26,6 +26,7 @@ def test_an_ant_from_the_table_equals_one_solved_by_scipy(kwargs, monkeypatch):
 
 
 def test_building_the_default_ant_imports_no_scipy_optimize():
-    code = "import sys; from bodies.desert_ant import desert_ant; desert_ant(); print('scipy.optimize' in sys.modules)"
+    code = ("import sys; from neuronav.bodies.desert_ant import desert_ant; desert_ant(); "
+            "print('scipy.optimize' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "False"

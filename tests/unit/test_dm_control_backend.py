@@ -11,9 +11,9 @@ from neuronav.world import World
 pytest.importorskip("dm_control", reason="dm_control is not installed")
 from dm_control import mujoco as dm_mujoco  # noqa: E402
 
-from backends.dm_control import DmControlBackend  # noqa: E402
-from backends.mujoco import MujocoBackend  # noqa: E402
-from bodies.desert_ant import desert_ant  # noqa: E402
+from neuronav.backends.dm_control import DmControlBackend  # noqa: E402
+from neuronav.backends.mujoco import MujocoBackend  # noqa: E402
+from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +29,7 @@ def loaded(cls, ant):
 
 
 # Scenarios that run on "mujoco" without the single-ant backend, so dm_control cannot stand in: why.
-NOT_ON_DM_CONTROL = {"swarm-homing": "many ants in one MuJoCo model (backends.mujoco.swarm), not the backend"}
+NOT_ON_DM_CONTROL = {"swarm-homing": "many ants in one MuJoCo model (neuronav.backends.mujoco.swarm), not the backend"}
 
 
 def test_registered_under_its_name_and_accepted_where_mujoco_is():
@@ -107,9 +107,9 @@ def test_locomotion_runs_on_dm_control_and_repeats_under_its_seed():
 def test_composer_entity_and_arena_come_from_the_backend_mjcf(ant):
     from dm_control import mjcf
 
-    from backends.dm_control.composer_env import AntEntity, WorldArena, split_mjcf
+    from neuronav.backends.dm_control.composer_env import AntEntity, WorldArena, split_mjcf
     from neuronav.odour import PolylineTrail
-    from scenarios.odour_trail import trail_world
+    from neuronav.scenarios.odour_trail import trail_world
 
     world = trail_world(PolylineTrail(vertices_m=np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0]]), width_m=0.3))
     arena_root, ant_root = split_mjcf(world, ant, 0.002)

@@ -2,7 +2,7 @@
 what the environments promise beyond them (observables named after the ports, the task object's reward,
 termination vs truncation, seeded episodes, the composer ant walking like the dm_control backend's).
 
-The conformance classes are made from the task registry (:data:`scenarios.envs.tasks.TASKS`), so a
+The conformance classes are made from the task registry (:data:`neuronav.scenarios.envs.tasks.TASKS`), so a
 new task is tested without being listed here. Episodes are cut to 1.5 gait cycles (2 actions) so that
 dm_env's longer action sequence also crosses an episode's end.
 """
@@ -16,14 +16,14 @@ pytest.importorskip("dm_control", reason="dm_control is not installed")
 import dm_env  # noqa: E402
 from dm_env import test_utils  # noqa: E402
 
-from backends.dm_control import DmControlBackend  # noqa: E402
-from bodies.desert_ant import desert_ant  # noqa: E402
-from bodies.gaits import make_gait  # noqa: E402
+from neuronav.backends.dm_control import DmControlBackend  # noqa: E402
+from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
+from neuronav.bodies.gaits import make_gait  # noqa: E402
 from neuronav.errors import ConfigError, PortError  # noqa: E402
 from neuronav.loop import AgentLoop, Clocks  # noqa: E402
-from scenarios.envs.dm_env_tasks import action_bounds, load, task_names  # noqa: E402
-from scenarios.envs.tasks import TASKS, make_task  # noqa: E402
-from scenarios.visual_setup import CONTROL_S, CYCLE_S  # noqa: E402
+from neuronav.scenarios.envs.dm_env_tasks import action_bounds, load, task_names  # noqa: E402
+from neuronav.scenarios.envs.tasks import TASKS, make_task  # noqa: E402
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S  # noqa: E402
 
 SHORT_S = 1.5 * CYCLE_S  # an episode of two actions
 ACTIONS = 3  # per sequence: two in the first episode, then a new one starts

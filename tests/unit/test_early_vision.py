@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from brains.vision import (
+from neuronav import ConfigError, PortError
+from neuronav.brains.vision import (
     ZernikeBasis,
     beacon_shift,
     compass_command,
@@ -11,7 +12,6 @@ from brains.vision import (
     radial_polynomial,
     zernike_orders,
 )
-from neuronav import ConfigError, PortError
 
 W, H = 74, 19
 

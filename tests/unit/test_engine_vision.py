@@ -48,7 +48,7 @@ class Engine:
 
 def _mujoco() -> Engine:
     mujoco = pytest.importorskip("mujoco")
-    from backends.mujoco import MujocoBackend
+    from neuronav.backends.mujoco import MujocoBackend
 
     def ray_down(backend, x: float, y: float) -> float:
         geom = np.array([-1], dtype=np.int32)
@@ -62,7 +62,7 @@ def _mujoco() -> Engine:
 
 def _pybullet() -> Engine:
     pb = pytest.importorskip("pybullet")
-    from backends.pybullet import PybulletBackend
+    from neuronav.backends.pybullet import PybulletBackend
 
     def ray_down(backend, x: float, y: float) -> float:
         return pb.rayTest([x, y, 3.0], [x, y, -1.0], physicsClientId=backend.client_id)[0][3][2]
@@ -174,7 +174,7 @@ def test_the_ground_reaches_far_just_below_the_horizon(engine):
 
 
 def _ant():
-    from bodies.desert_ant import desert_ant
+    from neuronav.bodies.desert_ant import desert_ant
 
     return desert_ant()
 

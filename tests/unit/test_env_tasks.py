@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from backends.kinematic import KinematicBackend
+from neuronav.backends.kinematic import KinematicBackend
 from neuronav.errors import ConfigError
+from neuronav.scenarios.envs.tasks import MIN_START_RADII, TASKS, foraging_walk, make_task, read_state
+from neuronav.scenarios.plume_tracking import start_pose
 from neuronav.world import PointAgents
-from scenarios.envs.tasks import MIN_START_RADII, TASKS, foraging_walk, make_task, read_state
-from scenarios.plume_tracking import start_pose
 
 
 def test_foraging_walk_ends_where_the_kinematic_unicycle_ends():

@@ -15,7 +15,7 @@ SCRIPT = textwrap.dedent("""
 
     from neuronav.figure_process import draw_figures, figure_process
     from neuronav.scenario import ScenarioResult
-    from scenarios.locomotion import Locomotion
+    from neuronav.scenarios.locomotion import Locomotion
 
     out = Path(sys.argv[1])
 

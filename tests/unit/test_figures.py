@@ -13,7 +13,7 @@ from matplotlib.colors import to_rgba
 from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch
 
-from brains.cx import stone2017
+from neuronav.brains.cx import stone2017
 from neuronav.circuit import Circuit
 from neuronav.plotting import (
     EDGE_COLOURS,
@@ -207,7 +207,7 @@ def test_break_at_wraps_inserts_one_gap_per_crossing():
 @pytest.fixture(scope="module")
 def path_integration_run():
     from neuronav.config import apply_overrides
-    from scenarios.path_integration import PathIntegration, PathIntegrationConfig
+    from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
 
     scenario = PathIntegration()
     config = apply_overrides(PathIntegrationConfig, [f"{k}={v}" for k, v in scenario.smoke_config().items()])
@@ -215,7 +215,7 @@ def path_integration_run():
 
 
 def test_path_integration_trajectories_pair_colours_and_legend(path_integration_run):
-    from scenarios.path_integration_figures import trajectories_figure
+    from neuronav.scenarios.path_integration_figures import trajectories_figure
 
     result, config = path_integration_run
     ax = trajectories_figure(result, config).axes[0]
@@ -225,7 +225,7 @@ def test_path_integration_trajectories_pair_colours_and_legend(path_integration_
 
 
 def test_path_integration_heading_and_tb1_figures(path_integration_run):
-    from scenarios.path_integration_figures import cpu4_figure, tb1_figure
+    from neuronav.scenarios.path_integration_figures import cpu4_figure, tb1_figure
 
     result, config = path_integration_run
     fig = cpu4_figure(result, config)
@@ -240,7 +240,7 @@ def test_path_integration_heading_and_tb1_figures(path_integration_run):
 
 # -- embodied homing (synthetic recordings) --------------------------------------------------
 def embodied_result(trials: int = 3, steps: int = 60):
-    from scenarios.path_integration import PathIntegrationConfig
+    from neuronav.scenarios.path_integration import PathIntegrationConfig
 
     config = PathIntegrationConfig()
     rng = np.random.default_rng(0)
@@ -258,7 +258,7 @@ def embodied_result(trials: int = 3, steps: int = 60):
 
 
 def test_embodied_figures_pair_colours_break_wraps_and_name_drawn_lines():
-    from scenarios.embodied_homing_figures import cpu4_figure, trajectories_figure, velocity_figure
+    from neuronav.scenarios.embodied_homing_figures import cpu4_figure, trajectories_figure, velocity_figure
 
     result, config = embodied_result()
     ax = trajectories_figure(result, config).axes[0]
@@ -277,7 +277,7 @@ def test_embodied_figures_pair_colours_break_wraps_and_name_drawn_lines():
 @pytest.fixture(scope="module")
 def wall_run():
     from neuronav import registry
-    from scenarios.locomotion import Locomotion, LocomotionConfig
+    from neuronav.scenarios.locomotion import Locomotion, LocomotionConfig
 
     ok, reason = registry.availability("backend", "mujoco")
     if not ok:
@@ -287,7 +287,7 @@ def wall_run():
 
 
 def test_climb_figure_legend_names_only_drawn_lines(wall_run):
-    from scenarios.locomotion_figures import climb_figure
+    from neuronav.scenarios.locomotion_figures import climb_figure
 
     result, config = wall_run
     side, height = climb_figure(result, config).axes
@@ -304,8 +304,8 @@ def test_climb_figure_legend_names_only_drawn_lines(wall_run):
 
 
 def test_locomotion_trajectory_leg_and_gait_figures(wall_run):
-    from bodies.desert_ant import LEGS
-    from scenarios.locomotion_figures import gait_diagram_figure, leg_traces_figure, trajectory_figure
+    from neuronav.bodies.desert_ant import LEGS
+    from neuronav.scenarios.locomotion_figures import gait_diagram_figure, leg_traces_figure, trajectory_figure
 
     result, config = wall_run
     ax = trajectory_figure(result, config).axes[0]

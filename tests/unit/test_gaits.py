@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from bodies.desert_ant import LEGS, desert_ant, leg_geometry
-from bodies.gaits import IK_REACH_FACTOR, FKGait, IKGait, foot_position, leg_ik, make_gait, side_factors
+from neuronav.bodies.desert_ant import LEGS, desert_ant, leg_geometry
+from neuronav.bodies.gaits import IK_REACH_FACTOR, FKGait, IKGait, foot_position, leg_ik, make_gait, side_factors
 from neuronav.errors import ConfigError
 
 N = 20  # S_n, steps per half swing (I2Bot default)
@@ -248,7 +248,7 @@ def test_start_is_ramped_in_from_the_rest_pose(ant, name):
 
 
 def test_posture_gait_holds_and_offsets_joints_after_a_smooth_start(ant):
-    from bodies.gaits import PostureGait
+    from neuronav.bodies.gaits import PostureGait
 
     base = make_gait("tripod", ant)
     gait = PostureGait(make_gait("tripod", ant), {"head_pitch": 0.6, "FL_FTi": 9.0}, {"FL_ThCz": 0.2})

@@ -10,11 +10,11 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import scenarios.envs  # noqa: F401  (registers the ids)
+import neuronav.scenarios.envs  # noqa: F401  (registers the ids)
 from neuronav import registry
 from neuronav.errors import ConfigError, PortError, RegistryError
-from scenarios.envs.gym_env import NeuronavEnv
-from scenarios.envs.tasks import make_task
+from neuronav.scenarios.envs.gym_env import NeuronavEnv
+from neuronav.scenarios.envs.tasks import make_task
 
 IDS = sorted(env_id for env_id in gymnasium.registry if env_id.startswith("neuronav/"))
 INSTALLED = [name for name in registry.names("backend") if registry.availability("backend", name)[0]]
@@ -45,8 +45,8 @@ def test_the_three_tasks_are_registered():
 
 
 def test_make_with_the_module_prefix_needs_no_import():
-    """Gymnasium 1.x loads no plugin entry points; ``"scenarios.envs:ID"`` imports the package itself."""
-    code = ("import gymnasium; env = gymnasium.make('scenarios.envs:neuronav/AntHoming-v0'); "
+    """Gymnasium 1.x loads no plugin entry points; ``"neuronav.scenarios.envs:ID"`` imports the package itself."""
+    code = ("import gymnasium; env = gymnasium.make('neuronav.scenarios.envs:neuronav/AntHoming-v0'); "
             "print(sorted(env.reset(seed=0)[0]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr

@@ -21,10 +21,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from brains.mushroom_body import mushroom_body, novelty
-from brains.vision import ZernikeBasis, compass_command, landmark_offset_px
-from brains.visual_homing import homing_direction, ridf, skyline_view
 from neuronav.body import Camera
+from neuronav.brains.mushroom_body import mushroom_body, novelty
+from neuronav.brains.vision import ZernikeBasis, compass_command, landmark_offset_px
+from neuronav.brains.visual_homing import homing_direction, ridf, skyline_view
 from neuronav.chemistry import Chemistry, OdourScene
 from neuronav.errors import NeuronavError
 from neuronav.odour import ImageTrail, PolylineTrail, loop_trail, rasterise

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from backends.kinematic import KinematicBackend, geometric_calibration
 from neuronav import PortError
 from neuronav.backend import Backend
+from neuronav.backends.kinematic import KinematicBackend, geometric_calibration
 from neuronav.errors import ConfigError, SimulationError
 from neuronav.world import PointAgents, World
 
@@ -91,7 +91,7 @@ def test_apply_force_pushes_one_agent():
 def test_measured_calibration_round_trip_and_bad_files(tmp_path):
     import json
 
-    from backends.kinematic import load_calibration
+    from neuronav.backends.kinematic import load_calibration
 
     table = {"source": "test", "turn": [-1, 0, 1], "stride_rad": [0.0, 0.5],
              "speed_m_s": [[0, 0.1], [0, 0.4], [0, 0.1]], "turn_rate_rad_s": [[0, 1], [0, 0], [0, -1]]}

@@ -4,7 +4,7 @@ the agent's pose and the scene's turn put the objects, rendered only when read, 
 import numpy as np
 import pytest
 
-from backends.kinematic import KinematicBackend
+from neuronav.backends.kinematic import KinematicBackend
 from neuronav.body import Camera, quat_to_matrix
 from neuronav.errors import ConfigError, PortError
 from neuronav.ports import SensorSpec

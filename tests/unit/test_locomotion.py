@@ -10,13 +10,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from bodies.desert_ant import LEGS, desert_ant
-from bodies.gaits import foot_position, segment_pose
+from neuronav.bodies.desert_ant import LEGS, desert_ant
+from neuronav.bodies.gaits import foot_position, segment_pose
 from neuronav.cli import main
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.world import Ground
-from scenarios.locomotion import (
+from neuronav.scenarios.locomotion import (
     LocomotionConfig,
     StanceAdhesion,
     body_centre_m,
@@ -28,6 +27,7 @@ from scenarios.locomotion import (
     start_position_m,
     trial_metrics,
 )
+from neuronav.world import Ground
 
 
 def walk(backend, seed=0, **settings):

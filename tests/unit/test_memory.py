@@ -13,8 +13,8 @@ import os
 import numpy as np
 import pytest
 
-from backends.kinematic import KinematicBackend
-from brains.cx import stone2017
+from neuronav.backends.kinematic import KinematicBackend
+from neuronav.brains.cx import stone2017
 from neuronav.world import PointAgents, World
 
 # The compiled circuit draws its noise in blocks of a multiple of 4 steps (256 at these batches):
@@ -116,8 +116,8 @@ def mujoco_samples(steps: int, sample) -> list:
     """The desert ant on MuJoCo, its joints held at sinusoidal targets, read every control step;
     ``sample()`` taken every :data:`SAMPLE_EVERY` physics steps after a warm-up of a tenth of the run."""
     os.environ.setdefault("MUJOCO_GL", "egl")
-    from backends.mujoco import MujocoBackend
-    from bodies.desert_ant import desert_ant
+    from neuronav.backends.mujoco import MujocoBackend
+    from neuronav.bodies.desert_ant import desert_ant
 
     body = desert_ant()
     samples = []

@@ -9,10 +9,10 @@ import pytest
 os.environ.setdefault("MUJOCO_GL", "egl")
 mujoco = pytest.importorskip("mujoco")
 
-from backends.mujoco import MujocoBackend  # noqa: E402
-from backends.mujoco.mjcf import matrix_to_quat, to_xml  # noqa: E402
 from neuronav.articulated import rest_bounds  # noqa: E402
 from neuronav.backend import Backend  # noqa: E402
+from neuronav.backends.mujoco import MujocoBackend  # noqa: E402
+from neuronav.backends.mujoco.mjcf import matrix_to_quat, to_xml  # noqa: E402
 from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
 from neuronav.world import Ground, World, WorldObject  # noqa: E402
@@ -416,7 +416,7 @@ def test_panorama_and_follow_camera():
 
 # -- the desert ant, when it is there ------------------------------------------------------------------
 def test_desert_ant_loads_stands_and_sees():
-    desert_ant = pytest.importorskip("bodies.desert_ant").desert_ant
+    desert_ant = pytest.importorskip("neuronav.bodies.desert_ant").desert_ant
     body = desert_ant()
     with loaded(body=body) as backend:
         model = backend.model

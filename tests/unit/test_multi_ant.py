@@ -7,12 +7,12 @@ import pytest
 pytest.importorskip("mujoco")
 pytest.importorskip("pybullet")
 
-import backends.mujoco.swarm as swarm  # noqa: E402
-from backends.mujoco import MujocoBackend  # noqa: E402
-from backends.pybullet import PybulletBackend  # noqa: E402
-from backends.pybullet.swarm import PybulletSwarm  # noqa: E402
-from bodies.desert_ant import desert_ant  # noqa: E402
-from bodies.gaits import make_gait  # noqa: E402
+import neuronav.backends.mujoco.swarm as swarm  # noqa: E402
+from neuronav.backends.mujoco import MujocoBackend  # noqa: E402
+from neuronav.backends.pybullet import PybulletBackend  # noqa: E402
+from neuronav.backends.pybullet.swarm import PybulletSwarm  # noqa: E402
+from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
+from neuronav.bodies.gaits import make_gait  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
 from neuronav.world import Ground, World  # noqa: E402
 
@@ -150,7 +150,7 @@ def test_bad_swarms_and_starts_are_refused_with_what_is_allowed(ant):
 
 @pytest.mark.parametrize("engine", sorted(SWARMS))
 def test_reads_have_the_agent_axis_first_like_the_kinematic_backend(ant, engine):
-    from backends.kinematic import KinematicBackend
+    from neuronav.backends.kinematic import KinematicBackend
 
     backend = SWARMS[engine][0]()
     backend.load(WORLD, [ant] * 3)

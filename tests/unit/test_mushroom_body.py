@@ -4,7 +4,8 @@ and the familiarity measurements on ray-cast forest views (scenarios/mb_familiar
 import numpy as np
 import pytest
 
-from brains.mushroom_body import (
+from neuronav import registry
+from neuronav.brains.mushroom_body import (
     KC_THRESHOLD,
     PANORAMA_COLUMNS,
     PANORAMA_ROWS,
@@ -17,10 +18,9 @@ from brains.mushroom_body import (
     pn_code,
     zernike_code,
 )
-from brains.vision import ZernikeBasis
-from neuronav import registry
+from neuronav.brains.vision import ZernikeBasis
 from neuronav.errors import ConfigError
-from scenarios import mb_familiarity as mbf
+from neuronav.scenarios import mb_familiarity as mbf
 
 N_PN = PANORAMA_ROWS * PANORAMA_COLUMNS
 

@@ -8,7 +8,7 @@ pytest.importorskip("pettingzoo")
 from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
 from neuronav.errors import ConfigError, PortError  # noqa: E402
-from scenarios.envs.pettingzoo_swarm import SwarmHomingEnv  # noqa: E402
+from neuronav.scenarios.envs.pettingzoo_swarm import SwarmHomingEnv  # noqa: E402
 
 
 @pytest.mark.parametrize("backend", ["kinematic", "mujoco", "pybullet"])

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from brains.plume_tracking import (
+from neuronav.brains.plume_tracking import (
     ODOUR_THRESHOLD,
     ORIENT,
     SEARCH,

@@ -30,7 +30,7 @@ from neuronav.config import apply_overrides, build_config, field, load_config_fi
 from neuronav.connectivity import RULES
 from neuronav.errors import ConfigError
 from neuronav.runner import run_trials
-from scenarios.path_integration import PathIntegration, PathIntegrationConfig
+from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
 
 PROPERTY = settings(deadline=None, database=None, derandomize=bool(os.environ.get("CI")),
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])

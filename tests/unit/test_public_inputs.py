@@ -12,12 +12,12 @@ import signal
 import numpy as np
 import pytest
 
-from backends.kinematic import KinematicBackend
-from brains.cx import decode_home_vector, preferred_headings_rad
-from brains.mushroom_body import learn_views, mushroom_body, novelty
-from brains.ring import ring_attractor
-from brains.vision import ZernikeBasis, compass_command
-from brains.visual_homing import homing_direction, ridf, skyline_view
+from neuronav.backends.kinematic import KinematicBackend
+from neuronav.brains.cx import decode_home_vector, preferred_headings_rad
+from neuronav.brains.mushroom_body import learn_views, mushroom_body, novelty
+from neuronav.brains.ring import ring_attractor
+from neuronav.brains.vision import ZernikeBasis, compass_command
+from neuronav.brains.visual_homing import homing_direction, ridf, skyline_view
 from neuronav.chemistry import MAX_PLUME_STEPS, Chemistry, OdourScene
 from neuronav.errors import CircuitError, ConfigError, PortError, SimulationError
 from neuronav.odour import ImageTrail, PolylineTrail, loop_trail, rasterise

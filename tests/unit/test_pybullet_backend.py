@@ -8,9 +8,9 @@ import pytest
 
 pb = pytest.importorskip("pybullet")
 
-from backends.pybullet import PybulletBackend  # noqa: E402
-from backends.pybullet.urdf import body_to_urdf, subset_inertial  # noqa: E402
 from neuronav.backend import ARTICULATED_SENSORS, Backend  # noqa: E402
+from neuronav.backends.pybullet import PybulletBackend  # noqa: E402
+from neuronav.backends.pybullet.urdf import body_to_urdf, subset_inertial  # noqa: E402
 from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
 from neuronav.world import Ground, PointAgents, World, WorldObject  # noqa: E402
@@ -477,9 +477,9 @@ def test_render_unknown_camera_raises(backend):
 # -- the desert ant (if its body is available) ------------------------------------------------------
 def _ant():
     try:
-        from bodies.desert_ant import desert_ant
+        from neuronav.bodies.desert_ant import desert_ant
     except ImportError:
-        pytest.skip("bodies.desert_ant is not available")
+        pytest.skip("neuronav.bodies.desert_ant is not available")
     return desert_ant()
 
 

@@ -1,13 +1,13 @@
-"""Sun et al.'s ring attractor (brains.ring): optimal two-cue integration, tracking, stability."""
+"""Sun et al.'s ring attractor (neuronav.brains.ring): optimal two-cue integration, tracking, stability."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from brains import bump_heading_rad, ring_attractor
-from brains.ring import CUE_AMPLITUDE, DT_S, N_CELLS, SETTLE_S, gaussian_cue, settle
 from neuronav import Circuit, CircuitError, ConfigError, PortError, SensorSpec
+from neuronav.brains import bump_heading_rad, ring_attractor
+from neuronav.brains.ring import CUE_AMPLITUDE, DT_S, N_CELLS, SETTLE_S, gaussian_cue, settle
 
 
 def _wrap_deg(angle_rad: np.ndarray) -> np.ndarray:

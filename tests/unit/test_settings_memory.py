@@ -5,9 +5,9 @@ import pytest
 
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
+from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
+from neuronav.scenarios.swarm_homing import SwarmHoming, SwarmHomingConfig
 from neuronav.sweep import plan
-from scenarios.path_integration import PathIntegration, PathIntegrationConfig
-from scenarios.swarm_homing import SwarmHoming, SwarmHomingConfig
 
 GiB = 2**30
 BIG_SWARM = {"ants": 100_000, "outbound_s": 3600.0, "homing_timeout_s": 3600.0}

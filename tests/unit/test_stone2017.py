@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from brains.cx import CPU4_GAIN, decode_home_vector, stone2017
+from neuronav.brains.cx import CPU4_GAIN, decode_home_vector, stone2017
 
 PUBLISHED_TB1_AT_0 = [0.0099, 0.0203, 0.6387, 0.8866, 0.9297, 0.8866, 0.6387, 0.0203]
 

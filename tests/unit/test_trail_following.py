@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from brains.trail_following import K_D, SENSOR_SCALE, T_D, T_O, TrailFollowing
+from neuronav.brains.trail_following import K_D, SENSOR_SCALE, T_D, T_O, TrailFollowing
 from neuronav.errors import ConfigError
 
 

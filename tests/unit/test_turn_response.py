@@ -2,7 +2,7 @@
 
 import pytest
 
-from scenarios.turn_response import main, turn_response
+from neuronav.scenarios.turn_response import main, turn_response
 
 
 def test_the_unicycle_turns_along_its_axis_at_its_calibrated_rate():

@@ -5,10 +5,10 @@ import pytest
 
 from neuronav.config import apply_overrides
 from neuronav.runner import load_scenario, run_trials
-from scenarios.visual_beacon import VisualBeaconConfig
-from scenarios.visual_beacon_figures import first_views_figure, times_figure, trajectories_figure
-from scenarios.visual_compass import VisualCompassConfig
-from scenarios.visual_compass_figures import compass_figure, error_figure
+from neuronav.scenarios.visual_beacon import VisualBeaconConfig
+from neuronav.scenarios.visual_beacon_figures import first_views_figure, times_figure, trajectories_figure
+from neuronav.scenarios.visual_compass import VisualCompassConfig
+from neuronav.scenarios.visual_compass_figures import compass_figure, error_figure
 
 
 @pytest.fixture(scope="module")
