@@ -1,8 +1,9 @@
 """Find backends, bodies, brains and scenarios by name through entry points.
 
 The core never imports its sibling packages; it asks ``importlib.metadata`` for the entry points
-of the groups ``neuronav.backends``, ``neuronav.bodies``, ``neuronav.brains`` and
-``neuronav.scenarios``. A third-party package adds to any of them without touching this repository.
+of the groups ``neuronav.backends``, ``neuronav.swarm_backends`` (many bodies in one engine world),
+``neuronav.bodies``, ``neuronav.brains`` and ``neuronav.scenarios``. A third-party package adds to any of
+them without touching this repository.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from neuronav.errors import RegistryError
 
 GROUPS = {
     "backend": "neuronav.backends",
+    "swarm_backend": "neuronav.swarm_backends",
     "body": "neuronav.bodies",
     "brain": "neuronav.brains",
     "scenario": "neuronav.scenarios",
@@ -29,7 +31,7 @@ def _group(kind: str):
 
 
 def names(kind: str) -> list[str]:
-    """The registered names of one kind (``backend``, ``body``, ``brain``, ``scenario``), sorted."""
+    """The registered names of one kind (``backend``, ``swarm_backend``, ``body``, ``brain``, ``scenario``), sorted."""
     return sorted(_group(kind))
 
 

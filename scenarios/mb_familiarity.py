@@ -40,7 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.backends.kinematic import KinematicBackend
+from neuronav import registry
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.brains.mushroom_body import (
     PANORAMA_COLUMNS,
@@ -93,7 +93,7 @@ def panoramas(world: World, positions_m: np.ndarray, headings_rad: np.ndarray, c
     images = []
     for start in range(0, len(positions_m), chunk):
         where, facing = positions_m[start:start + chunk], headings_rad[start:start + chunk]
-        backend = KinematicBackend()
+        backend = registry.load("backend", "kinematic")()
         backend.load(world, [PointAgents(count=len(where), mode="unicycle", cameras=(camera,))])
         backend.reset(position_m=where, heading_rad=facing)
         images.append(backend.read(["panorama"])["panorama"])

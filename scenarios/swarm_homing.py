@@ -42,7 +42,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav import sweep
+from neuronav import registry, sweep
 from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import field
 from neuronav.errors import ConfigError
@@ -112,22 +112,16 @@ class SwarmBodies:
     def __init__(self, backend: str, config: SwarmHomingConfig) -> None:
         self.backend, self.count = backend, config.ants
         world = World(ground=Ground(size_m=80.0))  # flat: the ground plane collides everywhere
-        if backend == "kinematic":
-            from neuronav.backends.kinematic import KinematicBackend
-
-            self.engine = KinematicBackend(timestep_s=CONTROL_S)
+        if backend == "kinematic":  # point agents: the batched single backend carries any number
+            self.engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
             self.engine.load(world, [PointAgents(count=self.count, mode="unicycle")])
             self.gaits, self.physics_steps = None, 1
-        else:
+        else:  # articulated ants colliding in one world: the engine's registered swarm backend
             from neuronav.bodies.desert_ant import desert_ant
             from neuronav.bodies.gaits import make_gait
 
-            if backend == "mujoco":
-                from neuronav.backends.mujoco.swarm import MujocoSwarm as Swarm
-            else:
-                from neuronav.backends.pybullet.swarm import PybulletSwarm as Swarm
             ant = desert_ant()
-            self.engine = Swarm(timestep_s=config.timestep_s)
+            self.engine = registry.load("swarm_backend", backend)(timestep_s=config.timestep_s)
             self.engine.load(world, [ant] * self.count)
             self.gaits = [make_gait("tripod", ant) for _ in range(self.count)]
             self.physics_steps = integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")

@@ -25,8 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from neuronav import registry
 from neuronav.backends.dm_control.composer_env import environment
-from neuronav.backends.kinematic import KinematicBackend
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.gaits import make_gait
 from neuronav.scenarios.embodied_homing import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
@@ -39,7 +39,7 @@ MAX_STRIDE_RAD = float(MIN_STRIDE_RAD + EXTRA_STRIDE_RAD)
 
 def action_bounds() -> tuple[np.ndarray, np.ndarray]:
     """(low, high) of (turn, stride_rad): the locomotion command ports' ranges, the stride capped at eq. 3.7's."""
-    motors = {spec.name: spec for spec in KinematicBackend.capabilities.motors}
+    motors = {spec.name: spec for spec in registry.load("backend", "kinematic").capabilities.motors}
     turn, stride = motors["turn"].range, motors["stride"].range
     return np.array([turn[0], stride[0]]), np.array([turn[1], min(stride[1], MAX_STRIDE_RAD)])
 

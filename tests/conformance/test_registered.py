@@ -10,6 +10,7 @@ from neuronav.backend import Backend, Capabilities
 from neuronav.body import BodySpec, Geom, Joint, Segment, Site
 from neuronav.chemistry import OdourScene
 from neuronav.config import apply_overrides
+from neuronav.errors import RegistryError
 from neuronav.odour import straight_trail
 from neuronav.plume import PlumeConfig
 from neuronav.runner import load_scenario, run_trials
@@ -207,3 +208,36 @@ def test_the_metric_check_refuses_an_undeclared_nan_and_accepts_a_declared_one()
     assert_metrics_finite(Fake(), ScenarioResult(trials=trials))
     with pytest.raises(AssertionError, match="aggregate"):
         assert_metrics_finite(Fake(), ScenarioResult(trials=trials, aggregates={"tau": float("inf")}))
+
+
+def drive_swarm(swarm_class, body, ants, seed, steps):
+    """Seeded random joint targets for ``ants`` copies of ``body`` in one world; every reading (steps, ants, ...)."""
+    rng = np.random.default_rng(seed)
+    low, high = np.array([j.range_rad for j in body.joints]).T
+    with swarm_class() as swarm:
+        swarm.load(World(), [body] * ants)
+        swarm.reset(seed)
+        readings = []
+        for _ in range(steps):
+            swarm.write({"joint_targets": rng.uniform(low, high, (ants, len(low)))})
+            swarm.step()
+            read = swarm.read([s.name for s in swarm.capabilities.sensors])
+            readings.append(np.concatenate([v.reshape(ants, -1) for v in read.values()], 1))
+        return np.array(readings)
+
+
+@pytest.mark.parametrize("name", registry.names("swarm_backend"))
+def test_swarm_backend_builds_steps_stays_finite_and_repeats(name):
+    """Every registered swarm backend (swarm-homing finds them by name) carries several bodies."""
+    ok, reason = registry.availability("swarm_backend", name)
+    if not ok:
+        pytest.skip(reason)
+    cls = registry.load("swarm_backend", name)
+    first = drive_swarm(cls, small_body(), 3, 3, 100)
+    assert first.shape[:2] == (100, 3) and np.all(np.isfinite(first))
+    np.testing.assert_array_equal(first, drive_swarm(cls, small_body(), 3, 3, 100))
+
+
+def test_an_unknown_swarm_backend_is_named_with_those_registered():
+    with pytest.raises(RegistryError, match="unknown swarm_backend 'nope'; available: mujoco, pybullet"):
+        registry.load("swarm_backend", "nope")
