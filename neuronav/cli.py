@@ -30,12 +30,10 @@ from __future__ import annotations
 import argparse
 import contextlib
 import os
-import signal
 import sys
 from pathlib import Path
-from typing import Any
 
-from neuronav import registry
+from neuronav import interrupts, registry
 from neuronav.config import describe
 from neuronav.errors import ConfigError, NeuronavError
 from neuronav.executors import sigint_held
@@ -148,6 +146,7 @@ def _command(args, argv: list[str]) -> int:
                          "or fewer trials\n")
         return 1
     except KeyboardInterrupt:
+        interrupts.interrupt_seen()
         sys.stderr.write(INTERRUPTED)
         return 130
 
@@ -299,38 +298,21 @@ def console_main() -> int:
     collections at exit do not walk the ~1300 modules' objects (0.2 s). Only for the command: a
     process that goes on after :func:`main` keeps the interpreter's own settings.
 
-    Ctrl-C interrupts the command once (:func:`_interrupt_once`): exit 130 and one line on stderr,
+    Ctrl-C interrupts the command once (:mod:`neuronav.interrupts`): exit 130 and one line on stderr,
     however many follow.
     """
     import gc
 
     gc.set_threshold(50_000, 20, 20)
-    _interrupt_once()
+    interrupts.install()
     try:
         return main(figure_helper=True)
     except KeyboardInterrupt:  # outside the command itself: while parsing, or starting the figure helper
+        interrupts.interrupt_seen()
         sys.stderr.write(INTERRUPTED)
         return 130
     finally:
         gc.freeze()
-
-
-def _interrupt_once() -> None:
-    """Make the first SIGINT raise KeyboardInterrupt in this process and ignore every later one.
-
-    Shutting down (killing the pool's workers, releasing the run folder) is then never cut short: a
-    second Ctrl-C used to leave the command hanging on its workers, a third to print tracebacks.
-    Processes forked from this one (pool workers, the figure helper) inherit the handler and ignore
-    SIGINT, which a terminal sends to them too: this process ends them.
-    """
-    owner = os.getpid()
-
-    def interrupted(signum: int, frame: Any) -> None:
-        signal.signal(signal.SIGINT, signal.SIG_IGN)
-        if os.getpid() == owner:
-            raise KeyboardInterrupt
-
-    signal.signal(signal.SIGINT, interrupted)
 
 
 if __name__ == "__main__":
