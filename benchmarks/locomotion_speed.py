@@ -67,8 +67,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from neuronav import registry  # noqa: E402
 from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
 from neuronav.bodies.gaits import make_gait  # noqa: E402
-from neuronav.body import BodySpec  # noqa: E402
-from neuronav.world import World  # noqa: E402
+from neuronav.spec.body import BodySpec  # noqa: E402
+from neuronav.spec.world import World  # noqa: E402
 
 TIMESTEP_S = 0.002
 PHYSICS_PER_CONTROL = 4

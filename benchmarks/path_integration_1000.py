@@ -48,8 +48,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from neuronav.brains.cx_reference import StoneNumpy  # noqa: E402
 from neuronav.config import apply_overrides  # noqa: E402
-from neuronav.runner import load_scenario, run_trials  # noqa: E402
-from neuronav.scenarios.path_integration import PathIntegrationConfig, outbound_routes  # noqa: E402
+from neuronav.runs.runner import load_scenario, run_trials  # noqa: E402
+from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig, outbound_routes  # noqa: E402
 
 TARGET_SPEEDUP = 100.0
 TARGET_S = 3.0

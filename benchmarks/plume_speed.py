@@ -42,10 +42,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from neuronav import registry  # noqa: E402
 from neuronav.bodies.antennae import point_antennae  # noqa: E402
 from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
-from neuronav.chemistry import Chemistry, OdourScene  # noqa: E402
-from neuronav.plume import OdourSource, Plume, PlumeConfig  # noqa: E402
-from neuronav.scenarios.plume_tracking import PlumeTrackingConfig, plume_config, plume_trial  # noqa: E402
-from neuronav.world import PointAgents, World  # noqa: E402
+from neuronav.scenarios.plume_tracking.scenario import PlumeTrackingConfig, plume_config, plume_trial  # noqa: E402
+from neuronav.senses.chemistry import Chemistry, OdourScene  # noqa: E402
+from neuronav.senses.plume import OdourSource, Plume, PlumeConfig  # noqa: E402
+from neuronav.spec.world import PointAgents, World  # noqa: E402
 
 DT_S = 0.01
 TIPS_M = np.array([[[6.6, -0.2, 0.15], [6.6, 0.2, 0.15]]])  # (1 agent, 2 tips, xyz)

@@ -7,7 +7,7 @@ the children's user + system time from ``os.times``):
 - ``neuronav run locomotion --backend mujoco --set duration_s=1 --out DIR`` (the issue's measure: the
   simulation itself takes about 0.05 s of it, the rest is start-up, writing the run and figures);
 - the same with its figures drawn in the command's own process (``NEURONAV_FIGURE_HELPER=0``: no
-  helper importing matplotlib while the trial runs, :mod:`neuronav.figure_process`);
+  helper importing matplotlib while the trial runs, :mod:`neuronav.runs.figure_process`);
 - the same with ``--no-figures``;
 - ``neuronav list``.
 

@@ -39,8 +39,8 @@ from neuronav.backends.mujoco import MujocoBackend  # noqa: E402
 from neuronav.backends.mujoco.swarm import MujocoSwarm  # noqa: E402
 from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
 from neuronav.bodies.gaits import make_gait  # noqa: E402
-from neuronav.scenarios.swarm_homing import home_positions  # noqa: E402
-from neuronav.world import Ground, World  # noqa: E402
+from neuronav.scenarios.swarm_homing.scenario import home_positions  # noqa: E402
+from neuronav.spec.world import Ground, World  # noqa: E402
 
 CONTROL_S, PHYSICS_S = 0.008, 0.002
 STRIDE_RAD = np.radians(15.0)

@@ -2,7 +2,7 @@
 
 The workload is path-integration with 2500 steps out and 2500 back (``--steps``; the rest at its
 defaults) with one trial per task (``--chunk-size 1``), so each task takes about 0.3 s. Every
-variant runs the same 64 trials through :func:`neuronav.sweep.execute` into a fresh run directory
+variant runs the same 64 trials through :func:`neuronav.runs.sweep.execute` into a fresh run directory
 (figures off, so the timings are the trials, the parts and the assembly of trials.csv and
 timeseries.h5) and the per-trial results are compared.
 
@@ -53,7 +53,7 @@ from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from neuronav.sweep import execute  # noqa: E402
+from neuronav.runs.sweep import execute  # noqa: E402
 
 TARGET_SPEEDUP = 1.7
 TARGET_DASK_OVERHEAD = 0.10

@@ -49,10 +49,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from neuronav import registry  # noqa: E402
 from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
-from neuronav.scenarios.visual_beacon import VisualBeaconConfig, beacon_trial  # noqa: E402
+from neuronav.scenarios.visual_beacon.scenario import VisualBeaconConfig, beacon_trial  # noqa: E402
 from neuronav.scenarios.visual_setup import point_agent_cameras  # noqa: E402
-from neuronav.scenery import compass_scene  # noqa: E402
-from neuronav.world import PointAgents  # noqa: E402
+from neuronav.scenarios.worlds.scenes import compass_scene  # noqa: E402
+from neuronav.spec.world import PointAgents  # noqa: E402
 
 
 def _engine(name: str, agents: int = 1):

@@ -13,13 +13,14 @@ from neuronav.errors import (
     RegistryError,
     SimulationError,
 )
-from neuronav.ports import MotorSpec, SensorSpec, bind
+from neuronav.spec.ports import MotorSpec, SensorSpec, bind
 
 __version__ = "0.1.0"
 
 # The circuit classes load on first use (they bring networkx: 0.1 s a run that has no circuit, such as
 # a locomotion run, need not pay).
-_LAZY = {"Circuit": "neuronav.circuit", "Population": "neuronav.circuit", "CompiledCircuit": "neuronav.compiled"}
+_LAZY = {"Circuit": "neuronav.circuits.circuit", "Population": "neuronav.circuits.circuit",
+         "CompiledCircuit": "neuronav.circuits.compiled"}
 
 
 def __getattr__(name: str):

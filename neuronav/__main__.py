@@ -1,5 +1,5 @@
 """``python -m neuronav``: the command line, as the ``neuronav`` script runs it (garbage-collector settings too)."""
 
-from neuronav.cli import console_main
+from neuronav.runs.cli import console_main
 
 raise SystemExit(console_main())

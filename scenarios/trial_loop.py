@@ -13,8 +13,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from neuronav.loop import AgentLoop, Clocks, Hook
-from neuronav.video import VideoRecorder
+from neuronav.engine.loop import AgentLoop, Clocks, Hook
+from neuronav.engine.video import VideoRecorder
 
 # Video: one frame of the follow camera every this many control steps (0.064 s at 8 ms), played in
 # real time (15.6 frames per second), streamed to the file.

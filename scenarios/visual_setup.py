@@ -17,8 +17,8 @@ from neuronav import registry
 from neuronav.bodies.antennae import point_antennae
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.gaits import make_gait, segment_pose
-from neuronav.body import BodySpec, Camera, quat_to_matrix
-from neuronav.world import PointAgents
+from neuronav.spec.body import BodySpec, Camera, quat_to_matrix
+from neuronav.spec.world import PointAgents
 
 CONTROL_S = 0.008
 CYCLE_S = 0.64

@@ -29,8 +29,8 @@ from neuronav import registry
 from neuronav.backends.dm_control.composer_env import environment
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.gaits import make_gait
-from neuronav.scenarios.embodied_homing import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
 from neuronav.scenarios.envs.tasks import TASKS, make_task
+from neuronav.scenarios.path_integration.embodied import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S
 
 # Eq. 3.7's largest stride (5° + 20°): the action's upper stride, as in the Gymnasium environment.

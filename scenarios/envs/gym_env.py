@@ -7,7 +7,7 @@ physics backend, the kinematic unicycle (carrying the ant's cameras and antennae
 ``settings`` are the task's scenario settings (the keys of ``neuronav run ... --set``).
 
 Spaces come from the ports. Observations: a ``Dict`` of ``Box`` es, one per observed port of the
-task (its shape from the backend's :class:`~neuronav.ports.SensorSpec`, its bounds from the spec's
+task (its shape from the backend's :class:`~neuronav.spec.ports.SensorSpec`, its bounds from the spec's
 ``range``, else from its units: grey images in [0, 1], odour concentrations >= 0, else unbounded)
 and one per observation the task computes (``home_vector``), float32. Actions:
 
@@ -38,13 +38,13 @@ import numpy as np
 from gymnasium import spaces
 
 from neuronav import registry
+from neuronav.engine.loop import AgentLoop, Clocks
 from neuronav.errors import ConfigError, PortError
-from neuronav.loop import AgentLoop, Clocks
-from neuronav.ports import SensorSpec
-from neuronav.scenarios.embodied_homing import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
 from neuronav.scenarios.envs.tasks import NavigationTask, make_task, read_state
 from neuronav.scenarios.envs.top_view import top_view
+from neuronav.scenarios.path_integration.embodied import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
+from neuronav.spec.ports import SensorSpec
 
 ACTION_MODES = ("locomotion", "joints")
 # Bounds of sensors whose spec has no range, by their units.

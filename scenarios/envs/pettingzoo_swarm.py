@@ -1,14 +1,15 @@
 """The swarm as a PettingZoo parallel environment: several ants in one world, each steered by its own policy.
 
 ``SwarmHomingEnv(backend="kinematic", ants=4, max_cycles=150, **settings)`` runs the bodies of
-:mod:`neuronav.scenarios.swarm_homing` (:class:`~neuronav.scenarios.swarm_homing.SwarmBodies`: kinematic unicycles,
+:mod:`neuronav.scenarios.swarm_homing.scenario`
+(:class:`~neuronav.scenarios.swarm_homing.scenario.SwarmBodies`: kinematic unicycles,
 or desert ants walked by their own FK tripod gaits in one MuJoCo or PyBullet world, colliding with
 each other);
 ``settings`` are swarm-homing's (``spacing_m``, ``nest_radius_m``, ``timestep_s``, ...: the keys of
 ``neuronav run swarm-homing --set``). Agents are ``"ant_0"`` .. ``"ant_{N-1}"``.
 
 Episode: ant i starts at its home of the swarm's sunflower spiral
-(:func:`~neuronav.scenarios.swarm_homing.home_positions`, ``spacing_m`` apart) facing a seeded heading; its
+(:func:`~neuronav.scenarios.swarm_homing.scenario.home_positions`, ``spacing_m`` apart) facing a seeded heading; its
 goal lies a seeded distance of 3 nest radii to ``MAX_GOAL_M`` away in a seeded direction (goals may
 lie where other ants stand: they meet on the way).
 
@@ -31,7 +32,7 @@ from pettingzoo import ParallelEnv
 from neuronav.config import build_config
 from neuronav.errors import ConfigError, PortError
 from neuronav.scenarios.envs.gym_env import MAX_STRIDE_RAD, port_box
-from neuronav.scenarios.swarm_homing import (
+from neuronav.scenarios.swarm_homing.scenario import (
     CONTROL_S,
     CYCLE_S,
     SwarmBodies,

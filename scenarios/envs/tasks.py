@@ -12,21 +12,21 @@ task        world and start                             goal (reward: progress) 
             where a seeded foraging walk ended (at
             least 3 nest radii from the nest)
 ``beacon``  the visual beacon's landmark and forest     the landmark (0, d)         ``success_radius_m``
-            (:func:`neuronav.scenarios.visual_beacon.beacon_world`)
+            (:func:`neuronav.scenarios.visual_beacon.scenario.beacon_world`)
 ``plume``   the plume-tracking arena and plume          the odour source            ``success_radius_m``
-            (:func:`neuronav.scenarios.plume_tracking.plume_world`)
+            (:func:`neuronav.scenarios.plume_tracking.scenario.plume_world`)
 ==========  ==========================================  ==========================  ==================
 
 The API, all a task offers:
 
-- ``task.world(seed=0)`` -> :class:`~neuronav.world.World` (only the beacon's forest depends on the seed);
+- ``task.world(seed=0)`` -> :class:`~neuronav.spec.world.World` (only the beacon's forest depends on the seed);
 - ``task.start(seed)`` -> :class:`Start` (position (2,) m, heading rad clockwise from +y), the same
   for the same seed;
 - ``task.goal_m`` (2,) m; ``task.success_radius_m``; ``task.time_limit_s`` (the scenario's timeout);
 - ``task.backends``: the backends its scenario runs on; ``task.physics_timestep_s``: the scenario's
   physics step of the ant on a physics backend;
 - ``task.observation_ports``: the backend sensors an agent observes; ``task.task_sensors``: the
-  :class:`~neuronav.ports.SensorSpec` of observations the task computes itself (``observe``);
+  :class:`~neuronav.spec.ports.SensorSpec` of observations the task computes itself (``observe``);
 - ``task.state_ports``: every sensor the task reads (``position`` and ``heading`` first);
 - ``read_state(backend, task)`` -> the state: ``{port: reading}`` of agent 0, batch dimension removed;
 - ``task.observe(state)`` -> the task's own observations (e.g. the homing vector);
@@ -50,14 +50,14 @@ import numpy as np
 from neuronav.backends.kinematic import default_calibration
 from neuronav.config import build_config
 from neuronav.errors import ConfigError
-from neuronav.ports import SensorSpec
-from neuronav.scenarios.embodied_homing import CONTROL_S, CYCLE_S
-from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
-from neuronav.scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_world, start_pose
-from neuronav.scenarios.visual_beacon import START_HEADINGS_RAD, VisualBeacon, VisualBeaconConfig, beacon_world
-from neuronav.world import Ground, World
+from neuronav.scenarios.path_integration.embodied import CONTROL_S, CYCLE_S
+from neuronav.scenarios.path_integration.scenario import PathIntegration, PathIntegrationConfig
+from neuronav.scenarios.plume_tracking.scenario import PlumeTracking, PlumeTrackingConfig, plume_world, start_pose
+from neuronav.scenarios.visual_beacon.scenario import START_HEADINGS_RAD, VisualBeacon, VisualBeaconConfig, beacon_world
+from neuronav.spec.ports import SensorSpec
+from neuronav.spec.world import Ground, World
 
-# The embodied homing scenario's floor (neuronav.scenarios.embodied_homing.embodied_trial).
+# The embodied homing scenario's floor (neuronav.scenarios.path_integration.embodied.embodied_trial).
 HOMING_FLOOR_M = 80.0
 # A homing episode starts at least this many nest radii from the nest (else it would start home).
 MIN_START_RADII = 3.0
@@ -154,7 +154,7 @@ def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: flo
                   attempt: int = 0) -> tuple[np.ndarray, float]:
     """The end of embodied homing's foraging walk, engine-free: (position (2,) m, heading rad).
 
-    The same walk as :class:`neuronav.scenarios.embodied_homing.HomingBrain` commands (from the nest, heading
+    The same walk as :class:`neuronav.scenarios.path_integration.embodied.HomingBrain` commands (from the nest, heading
     uniform in [0, 2π), a turn command ``0.7 turn + N(0, turn_std)`` per gait cycle at a fixed
     stride), moved as the kinematic unicycle moves (its calibration's speed and turn rate, 8 ms steps).
     ``attempt`` 0 draws trial ``seed``'s walk as the scenario does; other attempts draw other walks.
@@ -267,7 +267,7 @@ class BeaconTask(NavigationTask):
         return beacon_world(self.config, seed)
 
     def start(self, seed: int) -> Start:
-        rng = np.random.default_rng([seed, 4])  # as neuronav.scenarios.visual_beacon.beacon_trial draws it
+        rng = np.random.default_rng([seed, 4])  # as neuronav.scenarios.visual_beacon.scenario.beacon_trial draws it
         return Start(np.zeros(2), float(rng.uniform(*START_HEADINGS_RAD["both"])))
 
 

@@ -7,14 +7,14 @@ import sys
 
 import pytest
 
-import neuronav.scenarios.calibrate_unicycle as calibrate
+import neuronav.scenarios.tools.calibrate_unicycle as calibrate
 
 SHIPPED = calibrate.DATA_DIR / "unicycle_mujoco.json"
 
 
 def run_module(*args, cwd):
-    return subprocess.run([sys.executable, "-m", "neuronav.scenarios.calibrate_unicycle", *args], capture_output=True,
-                          text=True, timeout=120, cwd=cwd)
+    return subprocess.run([sys.executable, "-m", "neuronav.scenarios.tools.calibrate_unicycle", *args],
+                          capture_output=True, text=True, timeout=120, cwd=cwd)
 
 
 @pytest.fixture

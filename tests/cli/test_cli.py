@@ -8,7 +8,7 @@ import sys
 import h5py
 import pytest
 
-from neuronav.cli import main
+from neuronav.runs.cli import main
 
 SHORT = ["--set", "outbound_steps=150", "--set", "inbound_steps=200"]
 

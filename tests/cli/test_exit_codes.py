@@ -19,7 +19,7 @@ PLUGIN = '''
 from dataclasses import dataclass
 
 from neuronav.config import field
-from neuronav.scenario import Scenario, ScenarioResult
+from neuronav.runs.scenario import Scenario, ScenarioResult
 
 
 @dataclass

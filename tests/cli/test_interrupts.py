@@ -145,12 +145,12 @@ def test_an_interrupt_while_a_part_is_written_does_not_wait_for_the_running_chun
     waiting for them (about 200 000 steps: tens of seconds)."""
     signalled = tmp_path / "interrupted"
     probe = ("import pathlib, sys\n"
-             "import neuronav.sweep\n"
-             "from neuronav.cli import main\n"
+             "import neuronav.runs.sweep\n"
+             "from neuronav.runs.cli import main\n"
              "def interrupted(*args, **kwargs):\n"
              f"    pathlib.Path({str(signalled)!r}).touch()\n"
              "    raise KeyboardInterrupt\n"
-             "neuronav.sweep.write_part = interrupted\n"
+             "neuronav.runs.sweep.write_part = interrupted\n"
              "sys.exit(main(sys.argv[1:]))\n")
     args = ["sweep", "path-integration", "--grid", "outbound_steps=100,100000", "--grid", "inbound_steps=100,100000",
             "--workers", "2", "--chunk-size", "1", "--no-figures", "--out", str(tmp_path / "out")]

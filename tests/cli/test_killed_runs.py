@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-import neuronav.rundir
-from neuronav.cli import main
+import neuronav.runs.rundir
+from neuronav.runs.cli import main
 
 NEURONAV = str(Path(sys.executable).with_name("neuronav"))
 SHORT = ["--set", "outbound_steps=150", "--set", "inbound_steps=200"]
@@ -119,17 +119,17 @@ def test_killed_run_takes_its_workers_along_and_a_rerun_resumes_every_trial_once
 
 def test_workers_do_not_hold_the_run_folder_lock(tmp_path):
     """A worker forked while the lock is held closes its copy: after the parent lets go, nobody holds it."""
-    from neuronav.executors import LocalPool
+    from neuronav.runs.executors import LocalPool
 
     out = tmp_path / "out"
-    neuronav.rundir.claim_out_dir(out)
-    with neuronav.rundir.DirectoryLock(out) as lock:
+    neuronav.runs.rundir.claim_out_dir(out)
+    with neuronav.runs.rundir.DirectoryLock(out) as lock:
         pool = LocalPool(1, close_fds=(lock.fileno,))._pool(1)
         future = pool.submit(os.getpid)
         worker = future.result(timeout=60)
     try:
         assert alive(worker)
-        with neuronav.rundir.DirectoryLock(out):  # free although the worker still runs
+        with neuronav.runs.rundir.DirectoryLock(out):  # free although the worker still runs
             pass
     finally:
         pool.shutdown(wait=True)
@@ -139,16 +139,16 @@ def test_interrupted_assembly_is_finished_by_a_rerun(tmp_path, monkeypatch, caps
     """SIGINT while the results are written: trials.csv complete, no summary.json; a rerun only assembles."""
     out = tmp_path / "run"
     args = ["run", "path-integration", "--trials", "3", *SHORT, "--out", str(out)]
-    real = neuronav.rundir.write_timeseries
+    real = neuronav.runs.rundir.write_timeseries
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(neuronav.rundir, "write_timeseries", interrupted)
+    monkeypatch.setattr(neuronav.runs.rundir, "write_timeseries", interrupted)
     assert main(args) == 130
     assert len(rows_of(out / "trials.csv")) == 3 and not (out / "summary.json").exists()
     parts = {p: p.stat().st_mtime_ns for p in out.glob("parts/*.npz")}
-    monkeypatch.setattr(neuronav.rundir, "write_timeseries", real)
+    monkeypatch.setattr(neuronav.runs.rundir, "write_timeseries", real)
     capsys.readouterr()
     assert main(args) == 0
     assert "3 already done" in capsys.readouterr().out
@@ -161,17 +161,17 @@ def test_interrupted_sweep_assembly_is_finished_by_a_rerun(tmp_path, monkeypatch
     out = tmp_path / "sweep"
     args = ["sweep", "path-integration", "--grid", "noise=0.0,0.1", "--trials", "2", "--workers", "1", *SHORT,
             "--out", str(out)]
-    import neuronav.assembly
+    import neuronav.runs.assembly
 
-    real = neuronav.assembly.metrics_figure
+    real = neuronav.runs.assembly.metrics_figure
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(neuronav.assembly, "metrics_figure", interrupted)
+    monkeypatch.setattr(neuronav.runs.assembly, "metrics_figure", interrupted)
     assert main(args) == 130
     assert (out / "trials.csv").exists() and not (out / "summary.json").exists()
-    monkeypatch.setattr(neuronav.assembly, "metrics_figure", real)
+    monkeypatch.setattr(neuronav.runs.assembly, "metrics_figure", real)
     assert main(args) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["total_trials"] == 4 and summary["resumed_trials"] == 4

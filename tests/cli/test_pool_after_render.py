@@ -1,7 +1,7 @@
 """A pool run after a rendered trial in the same Python session: workers that do not hang.
 
 A child forked from a process that has made a GL context deadlocks inside the driver (Mesa's
-swrast under EGL); such a process spawns its workers instead (neuronav.executors.pool_context).
+swrast under EGL); such a process spawns its workers instead (neuronav.runs.executors.pool_context).
 """
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ import textwrap
 
 import pytest
 
-from neuronav.executors import gl_driver_loaded
+from neuronav.runs.executors import gl_driver_loaded
 
 SCRIPT = textwrap.dedent("""
     import os, sys
     os.environ.setdefault("MUJOCO_GL", "egl")
-    from neuronav.executors import gl_driver_loaded
-    from neuronav.runner import run_scenario
+    from neuronav.runs.executors import gl_driver_loaded
+    from neuronav.runs.runner import run_scenario
 
     if __name__ == "__main__":
         out = sys.argv[1]
@@ -57,6 +57,6 @@ def test_the_gl_driver_is_found_in_the_memory_map(tmp_path):
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="workers are forked on Linux only")
 def test_a_process_that_has_not_rendered_forks_its_workers():
     """Fork stays the default (workers start in milliseconds): in a fresh process, nothing rendered."""
-    check = "from neuronav.executors import pool_context; print(pool_context().get_start_method())"
+    check = "from neuronav.runs.executors import pool_context; print(pool_context().get_start_method())"
     done = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "fork", done.stderr[-2000:]

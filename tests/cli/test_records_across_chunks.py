@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 
 from neuronav import registry
-from neuronav.cli import main
-from neuronav.rundir import list_parts, read_part
-from neuronav.runner import run_scenario
-from neuronav.scenario import Scenario, ScenarioResult
-from neuronav.trials import load_scenario
+from neuronav.runs.cli import main
+from neuronav.runs.rundir import list_parts, read_part
+from neuronav.runs.runner import run_scenario
+from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.trials import load_scenario
 
 NEURONAV = str(Path(sys.executable).with_name("neuronav"))
 SEED = 3

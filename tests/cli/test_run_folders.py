@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from neuronav.errors import ConfigError
-from neuronav.rundir import MARKER_FILE, DirectoryLock, claim_out_dir
+from neuronav.runs.rundir import MARKER_FILE, DirectoryLock, claim_out_dir
 
 NEURONAV = str(Path(sys.executable).with_name("neuronav"))
 SHORT = ["--set", "outbound_steps=100", "--set", "inbound_steps=100"]
@@ -157,7 +157,7 @@ def test_a_path_with_a_null_byte_is_one_error_not_a_traceback(tmp_path):
     """pathlib says such a path does not exist, then mkdir raises ValueError: both must be refused."""
     with pytest.raises(ConfigError, match="not a usable path"):
         claim_out_dir(tmp_path / "a\x00b")
-    from neuronav.cli import main
+    from neuronav.runs.cli import main
 
     assert main(["run", "path-integration", "--out", str(tmp_path / "a\x00b"), "--no-figures"]) == 2
 
@@ -207,7 +207,7 @@ def test_the_marker_is_read_in_bounded_memory(tmp_path):
         stream.truncate(256 * 2**20)
     probe = ("import resource, sys\n"
              "from neuronav.errors import ConfigError\n"
-             "from neuronav.rundir import check_out_dir\n"
+             "from neuronav.runs.rundir import check_out_dir\n"
              "before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss\n"
              "try:\n"
              "    check_out_dir(sys.argv[1])\n"

@@ -11,8 +11,8 @@ import time
 import numpy as np
 import pytest
 
-from neuronav.cli import main
-from neuronav.rundir import list_parts, read_part
+from neuronav.runs.cli import main
+from neuronav.runs.rundir import list_parts, read_part
 
 SHORT = ["--set", "outbound_steps=150", "--set", "inbound_steps=200"]
 METRICS = ("home_distance", "decode_error_deg", "closest_distance", "tortuosity_mu", "decoded_distance")

@@ -6,15 +6,15 @@ import numpy as np
 import pytest
 
 from neuronav import registry
-from neuronav.backend import Backend, Capabilities
-from neuronav.body import BodySpec, Geom, Joint, Segment, Site
-from neuronav.chemistry import OdourScene
 from neuronav.config import apply_overrides
+from neuronav.engine.backend import Backend, Capabilities
 from neuronav.errors import RegistryError
-from neuronav.odour import straight_trail
-from neuronav.plume import PlumeConfig
-from neuronav.runner import load_scenario, run_trials
-from neuronav.world import PointAgents, PointAntenna, World
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.senses.chemistry import OdourScene
+from neuronav.senses.odour import straight_trail
+from neuronav.senses.plume import PlumeConfig
+from neuronav.spec.body import BodySpec, Geom, Joint, Segment, Site
+from neuronav.spec.world import PointAgents, PointAntenna, World
 
 # Every backend's world smells: a trail under the bodies and a live plume upwind of them, so the odour
 # and wind sensors are read (and must repeat under the seed) like the rest.
@@ -195,7 +195,7 @@ def test_scenario_runs_short_finite_and_repeats(name):
 
 
 def test_the_metric_check_refuses_an_undeclared_nan_and_accepts_a_declared_one():
-    from neuronav.scenario import ScenarioResult
+    from neuronav.runs.scenario import ScenarioResult
 
     class Fake:
         name = "fake"

@@ -13,7 +13,7 @@ import pytest
 
 from neuronav import registry
 from neuronav.bodies.desert_ant import desert_ant
-from neuronav.world import World
+from neuronav.spec.world import World
 
 ENGINES = ["mujoco", "pybullet"]
 
@@ -108,7 +108,7 @@ def test_longer_legs_stand_taller_and_walk_faster(engine_name):
     and walk 0.34 / 0.50 m/s on MuJoCo, 0.33 / 0.51 m/s on PyBullet."""
     from dataclasses import replace
 
-    from neuronav.scenarios.locomotion import LocomotionConfig, run_trial
+    from neuronav.scenarios.locomotion.scenario import LocomotionConfig, run_trial
 
     if not registry.availability("backend", engine_name)[0]:
         pytest.skip(f"{engine_name} is not installed")

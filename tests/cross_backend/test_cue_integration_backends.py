@@ -12,8 +12,8 @@ import pytest
 
 from neuronav import registry
 from neuronav.config import apply_overrides
-from neuronav.runner import load_scenario, run_trials
-from neuronav.scenarios.cue_integration import CueIntegrationConfig
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.scenarios.cue_integration.scenario import CueIntegrationConfig
 
 BACKENDS = ("kinematic", "mujoco", "dm_control", "pybullet")
 

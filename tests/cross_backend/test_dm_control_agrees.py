@@ -11,7 +11,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from neuronav.scenarios.locomotion import Locomotion, LocomotionConfig, run_trial
+from neuronav.scenarios.locomotion.scenario import Locomotion, LocomotionConfig, run_trial
 
 pytest.importorskip("dm_control", reason="dm_control is not installed")
 pytest.importorskip("mujoco", reason="mujoco is not installed")

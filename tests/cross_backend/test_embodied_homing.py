@@ -8,11 +8,11 @@ from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.gaits import make_gait
 from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import apply_overrides
-from neuronav.loop import AgentLoop, Clocks
-from neuronav.runner import load_scenario, run_trials
-from neuronav.scenarios.embodied_homing import CYCLE_S, steering_command
-from neuronav.scenarios.path_integration import PathIntegrationConfig
-from neuronav.world import World
+from neuronav.engine.loop import AgentLoop, Clocks
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.scenarios.path_integration.embodied import CYCLE_S, steering_command
+from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig
+from neuronav.spec.world import World
 
 PHYSICS = ["mujoco", "pybullet"]
 SHORT = {"outbound_s": 8.0, "homing_timeout_s": 30.0}

@@ -10,7 +10,8 @@ Besides the orderings, the speeds and turning rates must stay within ±25% of wh
 measured (2.5 s, trial seed 0, default settings otherwise), so that a change that slows every gait
 alike fails. Measured on 2026-11-23 with::
 
-    python -c "from dataclasses import replace; from neuronav.scenarios.locomotion import LocomotionConfig, run_trial; \
+    python -c "from dataclasses import replace; \
+        from neuronav.scenarios.locomotion.scenario import LocomotionConfig, run_trial; \
         print(run_trial(replace(LocomotionConfig(), gait='tripod', duration_s=2.5), 'mujoco', 0)[0])"
 
 (and likewise for each gait, ``turn`` and engine): forward speed (m/s) and turning rate (rad/s)
@@ -21,7 +22,7 @@ from dataclasses import replace
 
 import pytest
 
-from neuronav.scenarios.locomotion import LocomotionConfig, run_trial
+from neuronav.scenarios.locomotion.scenario import LocomotionConfig, run_trial
 
 BACKENDS = ["mujoco", "pybullet"]
 BAND = 0.25  # relative band around each measured value

@@ -9,12 +9,12 @@ import neuronav.bodies  # noqa: F401
 from neuronav import registry
 from neuronav.bodies.antennae import AntennaSweep, SweptAntennaeGait
 from neuronav.bodies.gaits import make_gait
-from neuronav.chemistry import OdourScene
-from neuronav.loop import AgentLoop, Clocks
-from neuronav.odour import straight_trail
-from neuronav.plume import OdourSource, PlumeConfig
+from neuronav.engine.loop import AgentLoop, Clocks
 from neuronav.scenarios.visual_setup import make_engine
-from neuronav.world import World
+from neuronav.senses.chemistry import OdourScene
+from neuronav.senses.odour import straight_trail
+from neuronav.senses.plume import OdourSource, PlumeConfig
+from neuronav.spec.world import World
 
 desert_ant = sys.modules["neuronav.bodies.desert_ant.body"].desert_ant
 BACKENDS = ("kinematic", "mujoco", "pybullet")

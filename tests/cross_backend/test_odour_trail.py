@@ -14,8 +14,14 @@ import pytest
 from neuronav import registry
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.runner import load_scenario, run_trials
-from neuronav.scenarios.odour_trail import OdourPeakHook, OdourTrailConfig, arc_length_m, at_trail_end, make_trail
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.scenarios.odour_trail.scenario import (
+    OdourPeakHook,
+    OdourTrailConfig,
+    arc_length_m,
+    at_trail_end,
+    make_trail,
+)
 
 
 def available(name):

@@ -9,10 +9,16 @@ import numpy as np
 import pytest
 
 from neuronav.brains.plume_tracking import ORIENT, SEARCH
-from neuronav.chemistry import Chemistry
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.scenarios.plume_tracking import PlumeTracking, PlumeTrackingConfig, plume_trial, plume_world, start_pose
+from neuronav.scenarios.plume_tracking.scenario import (
+    PlumeTracking,
+    PlumeTrackingConfig,
+    plume_trial,
+    plume_world,
+    start_pose,
+)
+from neuronav.senses.chemistry import Chemistry
 
 UPWIND_RAD = -np.pi / 2  # against the wind along +x, clockwise from +y
 

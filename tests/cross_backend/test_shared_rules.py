@@ -1,4 +1,4 @@
-"""The rules both physics backends share (neuronav.articulated): the same answers on MuJoCo and PyBullet.
+"""The rules both physics backends share (neuronav.engine.articulated): the same answers on MuJoCo and PyBullet.
 
 Reset seeds, write shapes, ``apply_force`` at a site or a segment, the sensor table, the terrain
 lookup, the follow camera's framing (the whole body in view) and the floor's texture.
@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from neuronav import registry
-from neuronav.articulated import FOLLOW_FOV_DEG, rest_bounds
-from neuronav.backend import ARTICULATED_SENSORS
-from neuronav.body import BodySpec, Geom, Joint, Segment, Site
+from neuronav.engine.articulated import FOLLOW_FOV_DEG, rest_bounds
+from neuronav.engine.backend import ARTICULATED_SENSORS
 from neuronav.errors import ConfigError, PortError
-from neuronav.world import Ground, World
+from neuronav.spec.body import BodySpec, Geom, Joint, Segment, Site
+from neuronav.spec.world import Ground, World
 
 BACKENDS = ["mujoco", "pybullet"]
 
@@ -189,7 +189,7 @@ def test_follow_view_is_the_same_on_both_engines():
 
 def test_the_floor_is_a_checker_on_both_engines():
     """Looking straight down at empty ground, the image has two clearly different floor colours."""
-    from neuronav.articulated import FollowView
+    from neuronav.engine.articulated import FollowView
 
     for name in BACKENDS:
         require(name)

@@ -6,8 +6,8 @@ import pytest
 
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.scenarios.swarm_homing import SwarmHoming, SwarmHomingConfig, home_positions, steering_commands
-from neuronav.scenarios.swarm_homing_figures import homing_times_figure, trajectories_figure
+from neuronav.scenarios.swarm_homing.figures import homing_times_figure, trajectories_figure
+from neuronav.scenarios.swarm_homing.scenario import SwarmHoming, SwarmHomingConfig, home_positions, steering_commands
 
 # Three ants 8 m apart (they do not meet in 10 s of foraging), 38 s to get home.
 SHORT = {"ants": 3, "spacing_m": 8.0, "outbound_s": 9.6, "homing_timeout_s": 38.4}

@@ -1,6 +1,6 @@
 """Odour trails drawn on the floor, the same on MuJoCo, PyBullet and the kinematic ray caster.
 
-A camera looking straight down from 0.6 m shows the trails' floor image (:mod:`neuronav.trail_floor`)
+A camera looking straight down from 0.6 m shows the trails' floor image (:mod:`neuronav.senses.trail_floor`)
 where its rays meet the floor, on every backend; the ant's own eyes, standing beside a trail, see
 the same share of trail pixels in the same columns; the follow view (videos) shows the trail where
 it lies; the drawing touches no physics, and a world without trails builds nothing for it.
@@ -14,14 +14,14 @@ import pytest
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 from neuronav import registry  # noqa: E402
-from neuronav.body import BodySpec, Camera, Geom, Joint, Segment  # noqa: E402
-from neuronav.chemistry import OdourScene  # noqa: E402
-from neuronav.odour import PolylineTrail, straight_trail  # noqa: E402
-from neuronav.plume import PlumeConfig  # noqa: E402
-from neuronav.scenery import vision_appearance  # noqa: E402
-from neuronav.trail_floor import TRAIL_RGB, ground_rgb_at, trail_floor  # noqa: E402
-from neuronav.vision import pixel_directions, to_uint8  # noqa: E402
-from neuronav.world import Appearance, PointAgents, World  # noqa: E402
+from neuronav.scenarios.worlds.scenes import vision_appearance  # noqa: E402
+from neuronav.senses.chemistry import OdourScene  # noqa: E402
+from neuronav.senses.odour import PolylineTrail, straight_trail  # noqa: E402
+from neuronav.senses.plume import PlumeConfig  # noqa: E402
+from neuronav.senses.trail_floor import TRAIL_RGB, ground_rgb_at, trail_floor  # noqa: E402
+from neuronav.senses.vision import pixel_directions, to_uint8  # noqa: E402
+from neuronav.spec.body import BodySpec, Camera, Geom, Joint, Segment  # noqa: E402
+from neuronav.spec.world import Appearance, PointAgents, World  # noqa: E402
 
 BACKENDS = ("kinematic", "mujoco", "pybullet")
 PHYSICS = ("mujoco", "pybullet")
@@ -193,7 +193,7 @@ def test_a_world_without_trails_builds_nothing_for_them():
 def test_the_videos_checker_floor_has_squares_of_checker_m_with_the_shared_parity(name):
     """Seen from 6 m straight above (lit), the floor's lighter squares are those of ``ground_rgb``
     (``floor(x/s) + floor(y/s)`` even), squares of ``checker_m``: as the trails' image draws them."""
-    from neuronav.articulated import FollowView
+    from neuronav.engine.articulated import FollowView
 
     look = Appearance(ground_texture="checker", checker_m=0.4)
     # Looking down, a little toward +y, image up along +y (MuJoCo's free camera takes its up from the look).

@@ -1,4 +1,4 @@
-"""The unicycle table shipped with the kinematic backend is what ``neuronav.scenarios.calibrate_unicycle``
+"""The unicycle table shipped with the kinematic backend is what ``neuronav.scenarios.tools.calibrate_unicycle``
 measures on MuJoCo today: the whole table is walked again (45 points of 3 s, about 10 s here) and
 must match to 1e-9 (it regenerated bit for bit when this test was written)."""
 
@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-import neuronav.scenarios.calibrate_unicycle as calibrate
+import neuronav.scenarios.tools.calibrate_unicycle as calibrate
 
 SHIPPED = json.loads((calibrate.DATA_DIR / "unicycle_mujoco.json").read_text())
 

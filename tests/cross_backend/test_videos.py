@@ -9,7 +9,7 @@ camera moves over the checker floor).
 import numpy as np
 import pytest
 
-from neuronav.cli import main
+from neuronav.runs.cli import main
 
 imageio = pytest.importorskip("imageio.v2")
 

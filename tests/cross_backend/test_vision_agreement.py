@@ -12,8 +12,8 @@ from neuronav import registry
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.brains.vision import ZernikeBasis
 from neuronav.scenarios.visual_setup import point_agent_cameras
-from neuronav.scenery import compass_scene, vision_appearance
-from neuronav.world import PointAgents, World, WorldObject
+from neuronav.scenarios.worlds.scenes import compass_scene, vision_appearance
+from neuronav.spec.world import PointAgents, World, WorldObject
 
 BACKENDS = ("kinematic", "mujoco", "pybullet")
 

@@ -14,9 +14,9 @@ import pytest
 
 from neuronav import registry
 from neuronav.config import apply_overrides
-from neuronav.runner import load_scenario, run_trials
-from neuronav.scenarios.visual_beacon import EYE_MODES, VisualBeaconConfig
-from neuronav.scenarios.visual_compass import VisualCompassConfig
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.scenarios.visual_beacon.scenario import EYE_MODES, VisualBeaconConfig
+from neuronav.scenarios.visual_compass.scenario import VisualCompassConfig
 
 
 def available(name):

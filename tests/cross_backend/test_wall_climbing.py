@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import pytest
 
-from neuronav.scenarios.locomotion import LocomotionConfig, run_trial
+from neuronav.scenarios.locomotion.scenario import LocomotionConfig, run_trial
 
 BACKENDS = ["mujoco", "pybullet"]
 

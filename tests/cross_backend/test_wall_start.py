@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from neuronav import registry
-from neuronav.backend import start_pose
 from neuronav.bodies.desert_ant import desert_ant
-from neuronav.body import quat_to_matrix
+from neuronav.engine.backend import start_pose
 from neuronav.errors import ConfigError, PortError
-from neuronav.world import Ground, World
+from neuronav.spec.body import quat_to_matrix
+from neuronav.spec.world import Ground, World
 
 ENGINES = ["mujoco", "pybullet"]
 WALL_X_M = 1.0

@@ -9,9 +9,9 @@ import neuronav.bodies  # noqa: F401  (registers the desert ant's modules)
 from neuronav.backends.kinematic import KinematicBackend
 from neuronav.bodies.antennae import AntennaSweep, AntennaYawHook, SweptAntennaeGait, point_antennae
 from neuronav.bodies.gaits import make_gait
+from neuronav.engine.loop import AgentLoop, Clocks
 from neuronav.errors import ConfigError
-from neuronav.loop import AgentLoop, Clocks
-from neuronav.world import PointAgents, PointAntenna, World
+from neuronav.spec.world import PointAgents, PointAntenna, World
 
 desert_ant = sys.modules["neuronav.bodies.desert_ant.body"].desert_ant
 

@@ -1,13 +1,13 @@
-"""The world's odour and wind (neuronav.chemistry): channels, the plume's own clock, seeds, checks."""
+"""The world's odour and wind (neuronav.senses.chemistry): channels, the plume's own clock, seeds, checks."""
 
 import numpy as np
 import pytest
 
-from neuronav.chemistry import PLUME_DT_S, Chemistry, OdourScene
 from neuronav.errors import ConfigError
-from neuronav.odour import ImageTrail, PolylineTrail, straight_trail
-from neuronav.plume import OdourSource, PlumeConfig
-from neuronav.world import World
+from neuronav.senses.chemistry import PLUME_DT_S, Chemistry, OdourScene
+from neuronav.senses.odour import ImageTrail, PolylineTrail, straight_trail
+from neuronav.senses.plume import OdourSource, PlumeConfig
+from neuronav.spec.world import World
 
 
 def _plume(**options) -> PlumeConfig:

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 
 from neuronav import Circuit, CircuitError, MotorSpec, PortError, SensorSpec, bind
 from neuronav.brains.cx import stone2017
-from neuronav.plotting import plot_circuit, plot_connectivity
+from neuronav.runs.plotting import plot_circuit, plot_connectivity
 
 X = SensorSpec("x", (1,), "")
 

@@ -10,7 +10,7 @@ from neuronav import Circuit, SensorSpec
 from neuronav.backends.kinematic import KinematicBackend
 from neuronav.brains.cx import stone2017
 from neuronav.errors import CircuitError, ConfigError, NeuronavError, PortError
-from neuronav.world import PointAgents, World
+from neuronav.spec.world import PointAgents, World
 
 GOOD = {"heading": np.zeros((1, 1)), "velocity": np.zeros((1, 2))}
 

@@ -4,7 +4,7 @@ import pytest
 
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.scenarios.path_integration import PathIntegrationConfig
+from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig
 
 
 def test_defaults_and_typed_overrides():

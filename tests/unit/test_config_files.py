@@ -5,11 +5,11 @@ import json
 import pytest
 
 from neuronav import registry
-from neuronav.cli import main
 from neuronav.config import build_config, load_config_file
 from neuronav.errors import ConfigError
-from neuronav.runner import load_scenario
-from neuronav.scenarios.path_integration import PathIntegrationConfig
+from neuronav.runs.cli import main
+from neuronav.runs.runner import load_scenario
+from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig
 
 
 def write(tmp_path, text, name="settings.toml"):
@@ -97,7 +97,7 @@ def test_nesting_up_to_the_limit_gets_the_usual_wrong_type_message(tmp_path):
 
 
 def test_a_number_for_a_text_setting_stands_for_its_text(tmp_path):
-    from neuronav.scenarios.cue_integration import CueIntegrationConfig, conflicts_deg
+    from neuronav.scenarios.cue_integration.scenario import CueIntegrationConfig, conflicts_deg
 
     path = write(tmp_path, "conflict_deg = 60\n")
     values = load_config_file(CueIntegrationConfig, path)

@@ -9,20 +9,20 @@ from neuronav.brains.ring import gaussian_cue, ring_attractor, settle
 from neuronav.brains.visual_homing import homing_direction, ridf, skyline_view
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.runner import load_scenario, run_trials
-from neuronav.scenarios.cue_integration import (
-    CueIntegrationConfig,
-    charge_home_vector,
-    crossing_bearing,
-    cue_world,
-    take_snapshots,
-)
-from neuronav.scenarios.cue_integration_brain import (
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.scenarios.cue_integration.brain import (
     TOTAL_AMPLITUDE,
     CueBrain,
     cue_amplitudes,
     ring_cues,
     weighted_direction,
+)
+from neuronav.scenarios.cue_integration.scenario import (
+    CueIntegrationConfig,
+    charge_home_vector,
+    crossing_bearing,
+    cue_world,
+    take_snapshots,
 )
 
 
@@ -152,8 +152,8 @@ def test_views_in_the_forest_point_home_from_near_the_nest():
     """Ray-cast panoramas 1.5–4 m from the nest, random headings: the RIDF's direction is within 30° of
     the nest for at least 90 % of places, and deeper (more certain) nearer the stored views."""
     from neuronav import registry
-    from neuronav.scenarios.cue_integration import panorama_camera
-    from neuronav.world import PointAgents
+    from neuronav.scenarios.cue_integration.scenario import panorama_camera
+    from neuronav.spec.world import PointAgents
 
     config = CueIntegrationConfig()
     world = cue_world(config)
@@ -238,7 +238,7 @@ def test_crossing_bearing_interpolates_the_crossing_point():
 
 
 def test_figures_draw_the_cues_the_prediction_and_the_measured_means():
-    from neuronav.scenarios.cue_integration_figures import conflict_table, initial_heading_figure, paths_figure
+    from neuronav.scenarios.cue_integration.figures import conflict_table, initial_heading_figure, paths_figure
 
     config = apply_overrides(CueIntegrationConfig, ["conflict_deg=0,90", "timeout_s=4.0"])
     result = run_trials(load_scenario("cue-integration"), config, "kinematic", trials=4, seed=0)

@@ -1,5 +1,6 @@
 """Imports flow one way: scenarios -> {brains, bodies} -> neuronav, backends -> neuronav; engines only in
-backends/, which scenarios reach by name through the registry.
+backends/, which scenarios reach by name through the registry. Inside the core too: runs -> engine ->
+{senses, circuits} -> spec -> the base modules (errors, config, registry).
 
 The folders brains/, bodies/, backends/ and scenarios/ install as neuronav.brains, ... (package-dir in
 pyproject.toml); no top-level module of those names is installed.
@@ -29,7 +30,7 @@ ENGINES = {"mujoco", "dm_control", "pybullet", "pybullet_data"}
 
 
 def layer(module: str) -> str:
-    """The layer of an imported module: ``neuronav.brains.cx`` -> ``brains``, ``neuronav.trials`` ->
+    """The layer of an imported module: ``neuronav.brains.cx`` -> ``brains``, ``neuronav.runs.trials`` ->
     ``neuronav``, anything else its top-level name (``mujoco.viewer`` -> ``mujoco``)."""
     parts = module.split(".")
     if parts[0] == "neuronav" and len(parts) > 1 and parts[1] in PROJECT:
@@ -63,9 +64,69 @@ def test_import_direction(package):
             assert not modules & ENGINES, f"{path.relative_to(ROOT)} imports a physics engine outside backends/"
 
 
+# The core's rooms, each allowed to import the rooms listed (and itself).
+CORE_ALLOWED = {
+    "base": set(),  # neuronav/errors.py, config.py, registry.py
+    "spec": {"base"},
+    "circuits": {"base", "spec"},
+    "senses": {"base", "spec"},
+    "engine": {"base", "spec", "senses", "circuits"},
+    "runs": {"base", "spec", "senses", "circuits", "engine"},
+}
+PACKAGE_ROOT = {"__init__.py", "__main__.py"}  # the package's face: re-exports from any room
+
+
+def core_room(module: str) -> str | None:
+    """The room of a core module: ``neuronav.senses.plume`` -> ``senses``, ``neuronav.errors`` -> ``base``;
+    None for anything outside the core (and for ``neuronav`` itself)."""
+    parts = module.split(".")
+    if parts[0] != "neuronav" or len(parts) == 1 or parts[1] in PROJECT:
+        return None
+    return parts[1] if parts[1] in CORE_ALLOWED else "base"
+
+
+def imported_core_rooms(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(), filename=str(path))
+    found = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found |= {core_room(alias.name) for alias in node.names}
+        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+            if node.module == "neuronav":  # from neuronav import registry / spec
+                found |= {core_room(f"neuronav.{alias.name}") for alias in node.names}
+            else:
+                found.add(core_room(node.module))
+    return found - {None}
+
+
+def test_the_core_is_in_rooms():
+    """Every core module sits in a room (or is one of the base modules)."""
+    loose = {p.name for p in (ROOT / "neuronav").glob("*.py")} - PACKAGE_ROOT
+    assert loose == {"errors.py", "config.py", "registry.py"}
+    assert {p.name for p in (ROOT / "neuronav").iterdir() if p.is_dir() and p.name != "__pycache__"} == \
+        set(CORE_ALLOWED) - {"base"}
+
+
+def test_import_direction_inside_the_core():
+    for path in sorted((ROOT / "neuronav").rglob("*.py")):
+        relative = path.relative_to(ROOT / "neuronav")
+        if str(relative) in PACKAGE_ROOT:
+            continue
+        room = relative.parts[0] if len(relative.parts) > 1 else "base"
+        wrong = imported_core_rooms(path) - CORE_ALLOWED[room] - {room}
+        assert not wrong, f"neuronav/{relative} ({room}) imports {sorted(wrong)} against the core's order"
+
+
+def test_the_core_checker_catches_a_wrong_import(tmp_path):
+    bad = tmp_path / "bad.py"
+    bad.write_text("from neuronav.runs.trials import run_trials\nimport neuronav.senses.plume\n"
+                   "from neuronav import registry, spec\nfrom neuronav.brains import cx\n")
+    assert imported_core_rooms(bad) == {"runs", "senses", "base", "spec"}
+
+
 def test_the_checker_catches_a_wrong_import(tmp_path):
     bad = tmp_path / "bad.py"
-    bad.write_text("import neuronav.scenarios.path_integration\nfrom mujoco import MjModel\n"
+    bad.write_text("import neuronav.scenarios.path_integration.scenario\nfrom mujoco import MjModel\n"
                    "from neuronav import backends\n")
     assert imported_modules(bad) == {"scenarios", "mujoco", "neuronav", "backends"}
 
@@ -75,10 +136,10 @@ def test_the_checker_catches_a_wrong_import(tmp_path):
 # must load none of them, so `neuronav list` and bad-input exits stay fast and a run imports each
 # only when it draws, writes, distributes or simulates.
 LAZY = {"matplotlib", "h5py", "dask", "distributed", "mujoco", "pybullet", "dm_control", "PIL"}
-EAGER_IMPORTS = ["neuronav.cli", "neuronav.plotting", "neuronav.scenarios.path_integration",
-                 "neuronav.scenarios.locomotion",
-                 "neuronav.scenarios.embodied_homing", "neuronav.scenarios.path_integration_figures",
-                 "neuronav.scenarios.embodied_homing_figures", "neuronav.scenarios.locomotion_figures"]
+EAGER_IMPORTS = ["neuronav.runs.cli", "neuronav.runs.plotting", "neuronav.scenarios.path_integration.scenario",
+                 "neuronav.scenarios.locomotion.scenario",
+                 "neuronav.scenarios.path_integration.embodied", "neuronav.scenarios.path_integration.figures",
+                 "neuronav.scenarios.path_integration.embodied_figures", "neuronav.scenarios.locomotion.figures"]
 
 
 def loaded_top_level_modules(modules: list[str]) -> set[str]:

@@ -8,8 +8,8 @@ import pytest
 
 from neuronav.bodies.desert_ant import LEG_JOINTS, LEGS, desert_ant, leg_geometry
 from neuronav.bodies.gaits import foot_position, segment_pose
-from neuronav.body import quat_to_matrix
 from neuronav.errors import ConfigError
+from neuronav.spec.body import quat_to_matrix
 
 EXPECTED_JOINTS = (
     [f"{leg}_{j}" for leg in LEGS for j in LEG_JOINTS]

@@ -5,8 +5,8 @@ import pytest
 
 from neuronav import registry
 from neuronav.errors import ConfigError, SimulationError
-from neuronav.trials import run_trials
-from neuronav.world import World
+from neuronav.runs.trials import run_trials
+from neuronav.spec.world import World
 
 pytest.importorskip("dm_control", reason="dm_control is not installed")
 from dm_control import mujoco as dm_mujoco  # noqa: E402
@@ -108,8 +108,8 @@ def test_composer_entity_and_arena_come_from_the_backend_mjcf(ant):
     from dm_control import mjcf
 
     from neuronav.backends.dm_control.composer_env import AntEntity, WorldArena, split_mjcf
-    from neuronav.odour import PolylineTrail
-    from neuronav.scenarios.odour_trail import trail_world
+    from neuronav.scenarios.odour_trail.scenario import trail_world
+    from neuronav.senses.odour import PolylineTrail
 
     world = trail_world(PolylineTrail(vertices_m=np.array([[0.0, 0.0], [3.0, 0.0], [3.0, 3.0]]), width_m=0.3))
     arena_root, ant_root = split_mjcf(world, ant, 0.002)

@@ -19,8 +19,8 @@ from dm_env import test_utils  # noqa: E402
 from neuronav.backends.dm_control import DmControlBackend  # noqa: E402
 from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
 from neuronav.bodies.gaits import make_gait  # noqa: E402
+from neuronav.engine.loop import AgentLoop, Clocks  # noqa: E402
 from neuronav.errors import ConfigError, PortError  # noqa: E402
-from neuronav.loop import AgentLoop, Clocks  # noqa: E402
 from neuronav.scenarios.envs.dm_env_tasks import action_bounds, load, task_names  # noqa: E402
 from neuronav.scenarios.envs.tasks import TASKS, make_task  # noqa: E402
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S  # noqa: E402

@@ -8,10 +8,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from neuronav.backend import quat_product
-from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, axis_angle_quat, quat_to_matrix
-from neuronav.vision import GROUND_REACH_M, pixel_directions, sky_rgb, to_uint8
-from neuronav.world import Appearance, World, WorldObject
+from neuronav.engine.backend import quat_product
+from neuronav.senses.vision import GROUND_REACH_M, pixel_directions, sky_rgb, to_uint8
+from neuronav.spec.body import BodySpec, Camera, Geom, Joint, Segment, axis_angle_quat, quat_to_matrix
+from neuronav.spec.world import Appearance, World, WorldObject
 
 PLAIN = Appearance(ground_texture="plain", sky_rgb=(0.5, 0.7, 0.9), ground_rgb=(0.7, 0.6, 0.4))
 EYE_Z_M = 0.6  # the cameras' height: the fixed base's centre at 0.5 m, the cameras 0.1 m above it

@@ -6,8 +6,8 @@ import pytest
 from neuronav.backends.kinematic import KinematicBackend
 from neuronav.errors import ConfigError
 from neuronav.scenarios.envs.tasks import MIN_START_RADII, TASKS, foraging_walk, make_task, read_state
-from neuronav.scenarios.plume_tracking import start_pose
-from neuronav.world import PointAgents
+from neuronav.scenarios.plume_tracking.scenario import start_pose
+from neuronav.spec.world import PointAgents
 
 
 def test_foraging_walk_ends_where_the_kinematic_unicycle_ends():

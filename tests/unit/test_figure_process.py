@@ -1,4 +1,4 @@
-"""The command line's figure helper (``neuronav/figure_process.py``): the same figures as drawn in the
+"""The command line's figure helper (``neuronav/runs/figure_process.py``): the same figures as drawn in the
 command's own process, failures reported, jobs it cannot take drawn here, and no process left behind.
 
 Each check runs in a fresh interpreter (a subprocess with a timeout): forking the test process itself,
@@ -13,16 +13,16 @@ SCRIPT = textwrap.dedent("""
     import json, os, sys
     from pathlib import Path
 
-    from neuronav.figure_process import draw_figures, figure_process
-    from neuronav.scenario import ScenarioResult
-    from neuronav.scenarios.locomotion import Locomotion
+    from neuronav.runs.figure_process import draw_figures, figure_process
+    from neuronav.runs.scenario import ScenarioResult
+    from neuronav.scenarios.locomotion.scenario import Locomotion
 
     out = Path(sys.argv[1])
 
 
     class Paths(Locomotion):
         def figures(self, result, config, out_dir):
-            from neuronav.plotting import new_figure, save
+            from neuronav.runs.plotting import new_figure, save
             out_dir.mkdir(parents=True, exist_ok=True)
             fig, ax = new_figure()
             ax.plot(*result.timeseries["position_m"][0].T, label="path")

@@ -14,8 +14,8 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Circle, FancyArrowPatch
 
 from neuronav.brains.cx import stone2017
-from neuronav.circuit import Circuit
-from neuronav.plotting import (
+from neuronav.circuits.circuit import Circuit
+from neuronav.runs.plotting import (
     EDGE_COLOURS,
     KIND_COLOURS,
     break_at_wraps,
@@ -24,8 +24,8 @@ from neuronav.plotting import (
     plot_circuit,
     plot_connectivity,
 )
-from neuronav.ports import MotorSpec, SensorSpec
-from neuronav.scenario import ScenarioResult
+from neuronav.runs.scenario import ScenarioResult
+from neuronav.spec.ports import MotorSpec, SensorSpec
 
 
 # -- helpers ---------------------------------------------------------------------------------
@@ -207,7 +207,7 @@ def test_break_at_wraps_inserts_one_gap_per_crossing():
 @pytest.fixture(scope="module")
 def path_integration_run():
     from neuronav.config import apply_overrides
-    from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
+    from neuronav.scenarios.path_integration.scenario import PathIntegration, PathIntegrationConfig
 
     scenario = PathIntegration()
     config = apply_overrides(PathIntegrationConfig, [f"{k}={v}" for k, v in scenario.smoke_config().items()])
@@ -215,7 +215,7 @@ def path_integration_run():
 
 
 def test_path_integration_trajectories_pair_colours_and_legend(path_integration_run):
-    from neuronav.scenarios.path_integration_figures import trajectories_figure
+    from neuronav.scenarios.path_integration.figures import trajectories_figure
 
     result, config = path_integration_run
     ax = trajectories_figure(result, config).axes[0]
@@ -225,7 +225,7 @@ def test_path_integration_trajectories_pair_colours_and_legend(path_integration_
 
 
 def test_path_integration_heading_and_tb1_figures(path_integration_run):
-    from neuronav.scenarios.path_integration_figures import cpu4_figure, tb1_figure
+    from neuronav.scenarios.path_integration.figures import cpu4_figure, tb1_figure
 
     result, config = path_integration_run
     fig = cpu4_figure(result, config)
@@ -240,7 +240,7 @@ def test_path_integration_heading_and_tb1_figures(path_integration_run):
 
 # -- embodied homing (synthetic recordings) --------------------------------------------------
 def embodied_result(trials: int = 3, steps: int = 60):
-    from neuronav.scenarios.path_integration import PathIntegrationConfig
+    from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig
 
     config = PathIntegrationConfig()
     rng = np.random.default_rng(0)
@@ -258,7 +258,7 @@ def embodied_result(trials: int = 3, steps: int = 60):
 
 
 def test_embodied_figures_pair_colours_break_wraps_and_name_drawn_lines():
-    from neuronav.scenarios.embodied_homing_figures import cpu4_figure, trajectories_figure, velocity_figure
+    from neuronav.scenarios.path_integration.embodied_figures import cpu4_figure, trajectories_figure, velocity_figure
 
     result, config = embodied_result()
     ax = trajectories_figure(result, config).axes[0]
@@ -277,7 +277,7 @@ def test_embodied_figures_pair_colours_break_wraps_and_name_drawn_lines():
 @pytest.fixture(scope="module")
 def wall_run():
     from neuronav import registry
-    from neuronav.scenarios.locomotion import Locomotion, LocomotionConfig
+    from neuronav.scenarios.locomotion.scenario import Locomotion, LocomotionConfig
 
     ok, reason = registry.availability("backend", "mujoco")
     if not ok:
@@ -287,7 +287,7 @@ def wall_run():
 
 
 def test_climb_figure_legend_names_only_drawn_lines(wall_run):
-    from neuronav.scenarios.locomotion_figures import climb_figure
+    from neuronav.scenarios.locomotion.figures import climb_figure
 
     result, config = wall_run
     side, height = climb_figure(result, config).axes
@@ -305,7 +305,7 @@ def test_climb_figure_legend_names_only_drawn_lines(wall_run):
 
 def test_locomotion_trajectory_leg_and_gait_figures(wall_run):
     from neuronav.bodies.desert_ant import LEGS
-    from neuronav.scenarios.locomotion_figures import gait_diagram_figure, leg_traces_figure, trajectory_figure
+    from neuronav.scenarios.locomotion.figures import gait_diagram_figure, leg_traces_figure, trajectory_figure
 
     result, config = wall_run
     ax = trajectory_figure(result, config).axes[0]

@@ -21,18 +21,18 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from neuronav.body import Camera
 from neuronav.brains.mushroom_body import mushroom_body, novelty
 from neuronav.brains.vision import ZernikeBasis, compass_command, landmark_offset_px
 from neuronav.brains.visual_homing import homing_direction, ridf, skyline_view
-from neuronav.chemistry import Chemistry, OdourScene
 from neuronav.errors import NeuronavError
-from neuronav.odour import ImageTrail, PolylineTrail, loop_trail, rasterise
-from neuronav.plume import OdourSource, Plume, PlumeConfig, WindConfig
-from neuronav.raycast import RayCaster
-from neuronav.scenery import forest, landmark
-from neuronav.vision import pixel_directions
-from neuronav.world import Ground, World, WorldObject
+from neuronav.scenarios.worlds.scenes import forest, landmark
+from neuronav.senses.chemistry import Chemistry, OdourScene
+from neuronav.senses.odour import ImageTrail, PolylineTrail, loop_trail, rasterise
+from neuronav.senses.plume import OdourSource, Plume, PlumeConfig, WindConfig
+from neuronav.senses.raycast import RayCaster
+from neuronav.senses.vision import pixel_directions
+from neuronav.spec.body import Camera
+from neuronav.spec.world import Ground, World, WorldObject
 
 SCALE = float(os.environ.get("NEURONAV_PROPERTY_SCALE", "1"))
 # Inputs that overflow are refused, not warned about; warnings on the way there are not the point.

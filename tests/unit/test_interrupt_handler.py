@@ -1,4 +1,4 @@
-"""The command's Ctrl-C handler (:mod:`neuronav.interrupts`), in this process.
+"""The command's Ctrl-C handler (:mod:`neuronav.runs.interrupts`), in this process.
 
 A KeyboardInterrupt swallowed by code outside the project (scipy's lazily imported Cython modules
 do, while they initialise) is raised again; one being handled is not raised twice; none after the
@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from neuronav import interrupts
+from neuronav.runs import interrupts
 
 WAIT_S = 5.0  # ten times RETRY_S
 

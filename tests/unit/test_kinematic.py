@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from neuronav import PortError
-from neuronav.backend import Backend
 from neuronav.backends.kinematic import KinematicBackend, geometric_calibration
+from neuronav.engine.backend import Backend
 from neuronav.errors import ConfigError, SimulationError
-from neuronav.world import PointAgents, World
+from neuronav.spec.world import PointAgents, World
 
 
 def engine(count=2, mode="stone", drag=0.15, calibration=None):

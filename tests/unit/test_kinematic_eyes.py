@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from neuronav.backends.kinematic import KinematicBackend
-from neuronav.body import Camera, quat_to_matrix
 from neuronav.errors import ConfigError, PortError
-from neuronav.ports import SensorSpec
-from neuronav.vision import to_uint8
-from neuronav.world import Appearance, Ground, PointAgents, World, WorldObject
+from neuronav.senses.vision import to_uint8
+from neuronav.spec.body import Camera, quat_to_matrix
+from neuronav.spec.ports import SensorSpec
+from neuronav.spec.world import Appearance, Ground, PointAgents, World, WorldObject
 
 # A camera looking along the agent's forward axis, level: in the agent's frame (x forward, y left,
 # z up) its x (right) is -y, its y (up) is z, its z (it looks along -z) is -x.
@@ -109,7 +109,7 @@ def test_a_batch_renders_each_agent_as_if_alone():
 
 
 def test_cameras_render_only_when_read(monkeypatch):
-    import neuronav.raycast as raycast
+    import neuronav.senses.raycast as raycast
 
     calls = []
     original = raycast.RayCaster.render

@@ -12,10 +12,10 @@ import pytest
 
 from neuronav.bodies.desert_ant import LEGS, desert_ant
 from neuronav.bodies.gaits import foot_position, segment_pose
-from neuronav.cli import main
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.scenarios.locomotion import (
+from neuronav.runs.cli import main
+from neuronav.scenarios.locomotion.scenario import (
     LocomotionConfig,
     StanceAdhesion,
     body_centre_m,
@@ -27,7 +27,7 @@ from neuronav.scenarios.locomotion import (
     start_position_m,
     trial_metrics,
 )
-from neuronav.world import Ground
+from neuronav.spec.world import Ground
 
 
 def walk(backend, seed=0, **settings):

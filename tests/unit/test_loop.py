@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
+from neuronav.engine.loop import AgentLoop, Clocks, Hook
 from neuronav.errors import ConfigError
-from neuronav.loop import AgentLoop, Clocks, Hook
 
 
 class CountingBackend:
@@ -89,7 +89,7 @@ def test_clocks_that_would_hang_the_loop_are_refused(periods):
 
 
 def test_video_plays_in_real_time_whatever_the_control_step():
-    from neuronav.video import real_time_fps
+    from neuronav.engine.video import real_time_fps
 
     assert real_time_fps(0.008, 4) == pytest.approx(31.25)
     assert real_time_fps(0.008, 8) * 8 * 0.008 == pytest.approx(1.0)  # one frame per its share of a second
@@ -97,8 +97,8 @@ def test_video_plays_in_real_time_whatever_the_control_step():
 
 
 def test_follow_camera_axes_on_the_floor_and_on_a_wall():
-    from neuronav.body import quat_to_matrix
-    from neuronav.video import follow_axes
+    from neuronav.engine.video import follow_axes
+    from neuronav.spec.body import quat_to_matrix
 
     # On the floor, pitched 10° nose-up and turned 90° left: follow the heading, keep the world's up.
     pitched = quat_to_matrix((np.cos(0.5 * np.radians(10)), 0.0, -np.sin(0.5 * np.radians(10)), 0.0))

@@ -15,7 +15,7 @@ import pytest
 
 from neuronav.backends.kinematic import KinematicBackend
 from neuronav.brains.cx import stone2017
-from neuronav.world import PointAgents, World
+from neuronav.spec.world import PointAgents, World
 
 # The compiled circuit draws its noise in blocks of a multiple of 4 steps (256 at these batches):
 # sampling every multiple of 1024 steps samples the same point of that cycle.

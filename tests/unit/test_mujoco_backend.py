@@ -9,13 +9,13 @@ import pytest
 os.environ.setdefault("MUJOCO_GL", "egl")
 mujoco = pytest.importorskip("mujoco")
 
-from neuronav.articulated import rest_bounds  # noqa: E402
-from neuronav.backend import Backend  # noqa: E402
 from neuronav.backends.mujoco import MujocoBackend  # noqa: E402
 from neuronav.backends.mujoco.mjcf import matrix_to_quat, to_xml  # noqa: E402
-from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
+from neuronav.engine.articulated import rest_bounds  # noqa: E402
+from neuronav.engine.backend import Backend  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
-from neuronav.world import Ground, World, WorldObject  # noqa: E402
+from neuronav.spec.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
+from neuronav.spec.world import Ground, World, WorldObject  # noqa: E402
 
 G = 9.81
 # A camera looking along the body's +x with image-up +z: its (x, y, z) axes in the body frame as columns.

@@ -14,7 +14,7 @@ from neuronav.backends.pybullet.swarm import PybulletSwarm  # noqa: E402
 from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
 from neuronav.bodies.gaits import make_gait  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
-from neuronav.world import Ground, World  # noqa: E402
+from neuronav.spec.world import Ground, World  # noqa: E402
 
 WORLD = World(ground=Ground(size_m=80.0))
 PUSH_N = 250.0

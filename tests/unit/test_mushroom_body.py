@@ -1,5 +1,5 @@
 """The mushroom body: wiring, view codes, sparsity of the KC code, familiar against novel views,
-and the familiarity measurements on ray-cast forest views (scenarios/mb_familiarity.py)."""
+and the familiarity measurements on ray-cast forest views (scenarios/tools/mb_familiarity.py)."""
 
 import numpy as np
 import pytest
@@ -20,7 +20,7 @@ from neuronav.brains.mushroom_body import (
 )
 from neuronav.brains.vision import ZernikeBasis
 from neuronav.errors import ConfigError
-from neuronav.scenarios import mb_familiarity as mbf
+from neuronav.scenarios.tools import mb_familiarity as mbf
 
 N_PN = PANORAMA_ROWS * PANORAMA_COLUMNS
 

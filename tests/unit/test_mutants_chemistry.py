@@ -1,12 +1,12 @@
-"""What neuronav.chemistry's docstrings claim and no other test pinned: the warm-up is the nearest whole
+"""What neuronav.senses.chemistry's docstrings claim and no other test pinned: the warm-up is the nearest whole
 number of plume steps, and the trails of one odour add up in its channel."""
 
 import numpy as np
 import pytest
 
-from neuronav.chemistry import Chemistry, OdourScene
-from neuronav.odour import PolylineTrail
-from neuronav.plume import OdourSource, Plume, PlumeConfig
+from neuronav.senses.chemistry import Chemistry, OdourScene
+from neuronav.senses.odour import PolylineTrail
+from neuronav.senses.plume import OdourSource, Plume, PlumeConfig
 
 
 @pytest.mark.parametrize("warmup_s", [0.3, 0.29, 0.57])

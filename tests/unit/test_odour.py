@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from neuronav.errors import ConfigError
-from neuronav.odour import (
+from neuronav.senses.odour import (
     DEFAULT_EDGE_M,
     TRAIL_WIDTHS_M,
     ImageTrail,

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from neuronav.config import apply_overrides
-from neuronav.runner import load_scenario, run_trials
-from neuronav.scenarios.path_integration import PathIntegrationConfig, outbound_routes, stone_tortuosity_mu
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig, outbound_routes, stone_tortuosity_mu
 
 
 def run(trials, seed=0, **overrides):
@@ -34,7 +34,7 @@ def test_reproduces_fig7_on_100_trials(arithmetic):
 @pytest.mark.slow
 def test_reproduces_fig7_on_1000_trials():
     """Stone et al. report all 1000 agents of their sample within 20 steps. This model misses about
-    0.07 % of agents (29 of 40 000 over 40 samples, `python -m neuronav.scenarios.fig7_statistics`), so about
+    0.07 % of agents (29 of 40 000 over 40 samples, `python -m neuronav.scenarios.tools.fig7_statistics`), so about
     two samples in five have no miss; seed 0 has one (24 steps away). One miss in 1000 is allowed,
     and none beyond 30 steps."""
     check_against_fig7(run(1000, seed=0), tortuosity_tolerance=0.04, allowed_misses=1)
@@ -77,7 +77,7 @@ def test_outbound_routes_follow_the_configured_statistics():
 
 
 def test_fig7_statistics_script_counts_misses_per_sample(capsys):
-    from neuronav.scenarios.fig7_statistics import main as fig7_statistics
+    from neuronav.scenarios.tools.fig7_statistics import main as fig7_statistics
 
     assert fig7_statistics(["--runs", "2", "--trials", "30"]) == 0
     out = capsys.readouterr().out
@@ -131,7 +131,7 @@ def test_check_refuses_what_cannot_run_on_the_backend():
 
 
 def test_cli_refuses_bad_settings_with_exit_2_and_one_line(tmp_path, capsys):
-    from neuronav.cli import main
+    from neuronav.runs.cli import main
 
     for settings in (["max_acceleration=1e308"], ["min_acceleration=0.3", "max_acceleration=0.2"],
                      ["outbound_steps=10", "inbound_steps=10", "record_every=21"]):
@@ -144,7 +144,7 @@ def test_cli_refuses_bad_settings_with_exit_2_and_one_line(tmp_path, capsys):
 
 
 def test_largest_record_every_still_records_and_draws(tmp_path, capsys):
-    from neuronav.cli import main
+    from neuronav.runs.cli import main
 
     code = main(["run", "path-integration", "--trials", "2", "--out", str(tmp_path / "run"), "--no-progress",
                  "--set", "outbound_steps=30", "--set", "inbound_steps=30", "--set", "record_every=60"])
@@ -175,7 +175,7 @@ def test_memory_estimate_refuses_a_batch_that_cannot_fit_and_admits_chunks_that_
     import sys
     from pathlib import Path
 
-    from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
+    from neuronav.scenarios.path_integration.scenario import PathIntegration, PathIntegrationConfig
 
     per_trial = PathIntegration().estimate_bytes(PathIntegrationConfig(), 1000) / 1000
     assert 120e3 < per_trial < 320e3

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from neuronav import Circuit
+from neuronav.circuits.plasticity import OneShotDepression, ThreeFactorHebbian
 from neuronav.errors import CircuitError
-from neuronav.plasticity import OneShotDepression, ThreeFactorHebbian
-from neuronav.ports import MotorSpec, SensorSpec
+from neuronav.spec.ports import MotorSpec, SensorSpec
 
 N_PN, N_KC = 6, 12
 
@@ -278,7 +278,7 @@ def test_a_prefixed_copy_keeps_its_gate():
 
 
 def test_the_circuit_diagram_dashes_a_plastic_connection_and_names_its_rule():
-    from neuronav.plotting import plot_circuit
+    from neuronav.runs.plotting import plot_circuit
 
     ax = plot_circuit(mb_circuit())
     edges = {p.get_gid(): p for p in ax.patches if (p.get_gid() or "").startswith("edge:")}
@@ -289,7 +289,7 @@ def test_the_circuit_diagram_dashes_a_plastic_connection_and_names_its_rule():
 
 
 def test_the_step_activation_is_binary_at_its_threshold():
-    from neuronav.activations import step
+    from neuronav.circuits.activations import step
 
     x = np.array([[-1.0, 0.5, 0.5000001, 2.0]])
     np.testing.assert_array_equal(step(x.copy(), threshold=0.5), [[0.0, 0.0, 1.0, 1.0]])

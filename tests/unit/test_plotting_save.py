@@ -4,7 +4,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from PIL import Image
 
-from neuronav.plotting import new_figure, save
+from neuronav.runs.plotting import new_figure, save
 
 
 def test_a_saved_figure_is_drawn_once_at_100_dpi(tmp_path, monkeypatch):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from neuronav.errors import ConfigError
-from neuronav.plume import ColouredNoise, OdourSource, Plume, PlumeConfig, WindConfig
+from neuronav.senses.plume import ColouredNoise, OdourSource, Plume, PlumeConfig, WindConfig
 
 STEADY = WindConfig(mean_mps=(1.0, 0.0), gain=0.0)
 STILL = WindConfig(mean_mps=(0.0, 0.0), gain=0.0)

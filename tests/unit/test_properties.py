@@ -25,12 +25,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from neuronav import Circuit, MotorSpec, NeuronavError, SensorSpec
-from neuronav.cli import main
+from neuronav.circuits.connectivity import RULES
 from neuronav.config import apply_overrides, build_config, field, load_config_file
-from neuronav.connectivity import RULES
 from neuronav.errors import ConfigError
-from neuronav.runner import run_trials
-from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
+from neuronav.runs.cli import main
+from neuronav.runs.runner import run_trials
+from neuronav.scenarios.path_integration.scenario import PathIntegration, PathIntegrationConfig
 
 PROPERTY = settings(deadline=None, database=None, derandomize=bool(os.environ.get("CI")),
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])

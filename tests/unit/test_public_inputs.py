@@ -18,14 +18,14 @@ from neuronav.brains.mushroom_body import learn_views, mushroom_body, novelty
 from neuronav.brains.ring import ring_attractor
 from neuronav.brains.vision import ZernikeBasis, compass_command
 from neuronav.brains.visual_homing import homing_direction, ridf, skyline_view
-from neuronav.chemistry import MAX_PLUME_STEPS, Chemistry, OdourScene
 from neuronav.errors import CircuitError, ConfigError, PortError, SimulationError
-from neuronav.odour import ImageTrail, PolylineTrail, loop_trail, rasterise
-from neuronav.plume import OdourSource, Plume, PlumeConfig, WindConfig
-from neuronav.raycast import RayCaster
-from neuronav.scenery import forest, landmark
-from neuronav.trail_floor import build_trail_floor
-from neuronav.world import Appearance, Ground, PointAgents, PointAntenna, World, WorldObject
+from neuronav.scenarios.worlds.scenes import forest, landmark
+from neuronav.senses.chemistry import MAX_PLUME_STEPS, Chemistry, OdourScene
+from neuronav.senses.odour import ImageTrail, PolylineTrail, loop_trail, rasterise
+from neuronav.senses.plume import OdourSource, Plume, PlumeConfig, WindConfig
+from neuronav.senses.raycast import RayCaster
+from neuronav.senses.trail_floor import build_trail_floor
+from neuronav.spec.world import Appearance, Ground, PointAgents, PointAntenna, World, WorldObject
 
 NAN, INF = float("nan"), float("inf")
 

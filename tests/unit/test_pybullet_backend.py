@@ -8,12 +8,12 @@ import pytest
 
 pb = pytest.importorskip("pybullet")
 
-from neuronav.backend import ARTICULATED_SENSORS, Backend  # noqa: E402
 from neuronav.backends.pybullet import PybulletBackend  # noqa: E402
 from neuronav.backends.pybullet.urdf import body_to_urdf, subset_inertial  # noqa: E402
-from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
+from neuronav.engine.backend import ARTICULATED_SENSORS, Backend  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
-from neuronav.world import Ground, PointAgents, World, WorldObject  # noqa: E402
+from neuronav.spec.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix  # noqa: E402
+from neuronav.spec.world import Ground, PointAgents, World, WorldObject  # noqa: E402
 
 G = 9.81
 # A camera looking along the body's +x (its -z axis forward) with +z up: columns x=-y, y=z, z=-x.

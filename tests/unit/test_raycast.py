@@ -4,11 +4,11 @@ the sky, the checker ground, the scene's turn, and batches that change nothing."
 import numpy as np
 import pytest
 
-from neuronav.body import Camera
 from neuronav.errors import ConfigError
-from neuronav.raycast import RayCaster
-from neuronav.vision import pixel_directions, to_uint8
-from neuronav.world import Appearance, World, WorldObject
+from neuronav.senses.raycast import RayCaster
+from neuronav.senses.vision import pixel_directions, to_uint8
+from neuronav.spec.body import Camera
+from neuronav.spec.world import Appearance, World, WorldObject
 
 EYE = Camera("eye", "head", (0.0, 0.0, 0.0), width_px=74, height_px=19, fov_rad=(2.0, 0.5))
 PANORAMA = Camera("panorama", "head", (0.0, 0.0, 0.0), width_px=72, height_px=72, fov_rad=(2 * np.pi, np.pi),
@@ -154,7 +154,7 @@ def test_a_batch_renders_each_agent_as_if_alone():
 
 
 def test_chunks_of_agents_change_nothing(monkeypatch):
-    import neuronav.raycast as raycast
+    import neuronav.senses.raycast as raycast
 
     caster = RayCaster(World(objects=tuple(_compass_like()), appearance=PLAIN), pixel_directions(PANORAMA))
     headings = np.linspace(-3.0, 3.0, 5)

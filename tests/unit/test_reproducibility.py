@@ -16,9 +16,9 @@ import pytest
 
 from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.brains.ring import ring_attractor
-from neuronav.cli import main
 from neuronav.config import apply_overrides
-from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig, outbound_routes
+from neuronav.runs.cli import main
+from neuronav.scenarios.path_integration.scenario import PathIntegration, PathIntegrationConfig, outbound_routes
 
 TRIALS = 50
 SHORT = {"outbound_steps": 150, "inbound_steps": 150, "record_every": 5, "record_trials": TRIALS}
@@ -172,7 +172,7 @@ def test_cli_workers_1_and_2_and_chunks_of_5_write_identical_trials(tmp_path, dt
 @pytest.mark.parametrize("mode", ["stone", "unicycle"])
 def test_kinematic_agent_is_independent_of_its_batch(mode):
     from neuronav.backends.kinematic import KinematicBackend
-    from neuronav.world import PointAgents, World
+    from neuronav.spec.world import PointAgents, World
 
     rng = np.random.default_rng(4)
     batch, steps = 9, 60

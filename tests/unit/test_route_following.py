@@ -1,18 +1,18 @@
-"""Route following by mushroom-body familiarity (scenarios/route_following.py) on the kinematic unicycle."""
+"""Route following by mushroom-body familiarity (scenarios/route_following/scenario.py) on the kinematic unicycle."""
 
 import numpy as np
 import pytest
 
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.scenarios.mb_familiarity import route
-from neuronav.scenarios.route_following import (
+from neuronav.scenarios.route_following.scenario import (
     RouteFollowing,
     RouteFollowingConfig,
     release_point,
     route_metrics,
     route_trial,
 )
+from neuronav.scenarios.tools.mb_familiarity import route
 
 
 def test_metrics_of_a_path_along_the_route_and_of_one_beside_it():
@@ -49,7 +49,7 @@ def test_scanning_follows_a_trained_route():
 def test_without_a_memory_the_scan_does_not_follow_the_route():
     """The control: a mushroom body that learnt nothing finds every heading equally novel and walks off."""
     config = RouteFollowingConfig(strategy="scan", route_m=5.0, duration_s=15.0, n_kc=2000, landscape=False)
-    import neuronav.scenarios.route_following as rf
+    import neuronav.scenarios.route_following.scenario as rf
 
     class Forgetful(rf.RouteMemory):
         def learn(self, panorama):
@@ -118,7 +118,7 @@ def test_klinokinesis_follows_most_of_a_short_route():
 
 def test_a_kinematic_batch_gives_each_trial_the_numbers_it_has_alone():
     """Shared forest (forest_seed): trial k of a batch of 4 == trial k run alone == the one-at-a-time loop."""
-    from neuronav.scenarios.route_following import run_kinematic_batch
+    from neuronav.scenarios.route_following.scenario import run_kinematic_batch
 
     config = RouteFollowingConfig(route_m=3.0, duration_s=10.0, n_kc=500, landscape=False, forest_seed=1,
                                   release_jitter_m=0.2)
@@ -150,7 +150,7 @@ def test_judging_several_views_per_cycle_still_turns_once_per_cycle_and_follows_
 
 
 def test_the_scan_turns_toward_the_least_novel_heading_in_proportion_to_its_offset():
-    from neuronav.scenarios.route_following import familiarity_turn
+    from neuronav.scenarios.route_following.scenario import familiarity_turn
 
     offsets = np.array([-20.0, -10.0, 0.0, 10.0, 20.0])  # deg, + right
     values = np.array([5.0, 4.0, 3.0, 1.0, 2.0])  # least novel 10° right
@@ -160,7 +160,7 @@ def test_the_scan_turns_toward_the_least_novel_heading_in_proportion_to_its_offs
 
 
 def test_klinokinesis_turns_alternately_and_no_wider_than_its_widest_turn():
-    from neuronav.scenarios.route_following import familiarity_turn
+    from neuronav.scenarios.route_following.scenario import familiarity_turn
 
     class Memory:  # 100 KCs: the learner's KC rates are all that klinokinesis reads of the memory
         class learner:
@@ -181,7 +181,7 @@ def test_klinokinesis_turns_alternately_and_no_wider_than_its_widest_turn():
 
 
 def test_the_scan_judges_headings_scan_step_deg_apart():
-    from neuronav.scenarios.route_following import RouteMemory
+    from neuronav.scenarios.route_following.scenario import RouteMemory
 
     for step_deg, columns in ((5.0, 1), (10.0, 2), (20.0, 4)):
         memory = RouteMemory(RouteFollowingConfig(n_kc=100, scan_deg=60.0, scan_step_deg=step_deg), seed=0)
@@ -190,7 +190,7 @@ def test_the_scan_judges_headings_scan_step_deg_apart():
 
 def test_travel_aligned_views_face_the_way_the_ant_moved_over_its_last_cycle():
     """Headings clockwise from +y; the panorama rolled k columns faces -5k° (+ right), as in the scan."""
-    from neuronav.scenarios.route_following import GuidedLearning
+    from neuronav.scenarios.route_following.scenario import GuidedLearning
 
     guide = GuidedLearning(np.zeros((2, 2)), memory=None, calls_per_cycle=2, travel_aligned=True)
     assert guide.view_roll_columns(0.0) == 0  # no cycle walked yet
@@ -215,7 +215,7 @@ def test_travel_aligned_views_change_nothing_on_the_unicycle_that_walks_along_it
 
 
 def test_the_scan_gain_and_test_views_left_at_0_are_the_bodys_own():
-    from neuronav.scenarios.route_following import body_steering
+    from neuronav.scenarios.route_following.scenario import body_steering
 
     unicycle = body_steering(RouteFollowingConfig(), "kinematic")
     assert (unicycle.scan_full_turn_deg, unicycle.test_views_per_cycle) == (30.0, 1)
@@ -254,7 +254,7 @@ class StandingAnt:
 def test_the_test_turns_on_the_novelty_averaged_over_the_cycles_views():
     """Four views per cycle (the physics ants' own): the turn of a cycle is the scan of the mean novelty of
     its last four views, not of the last view, and is held for the cycle's other views."""
-    from neuronav.scenarios.route_following import FamiliaritySteering
+    from neuronav.scenarios.route_following.scenario import FamiliaritySteering
 
     first = [5.0, 5.0, 0.0, 5.0, 5.0]  # straight ahead least novel
     swayed_left = [5.0, 1.0, 3.0, 4.0, 5.0]  # three views: least novel 10° left

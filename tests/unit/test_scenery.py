@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from neuronav.errors import ConfigError
-from neuronav.scenery import TREE_GREY_MIN, compass_scene, forest, landmark, vision_appearance
-from neuronav.vision import grey
+from neuronav.scenarios.worlds.scenes import TREE_GREY_MIN, compass_scene, forest, landmark, vision_appearance
+from neuronav.senses.vision import grey
 
 
 def footprint_m(obj):

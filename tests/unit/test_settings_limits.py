@@ -1,7 +1,7 @@
 """Every value a scenario's settings accept can run: the ends of every numeric range, for every
 registered scenario, either run a trial on the kinematic backend (or the scenario's default backend
 where it has no kinematic body) or are refused before the first trial, in one line naming the setting
-(a ConfigError from :func:`neuronav.sweep.plan`: the CLI's exit 2).
+(a ConfigError from :func:`neuronav.runs.sweep.plan`: the CLI's exit 2).
 
 The CI variants take the smallest value of every duration (``*_s``), alone and all at once: a trial
 too short for one brain cycle used to fail (an empty log) after passing the checks. The slow test
@@ -17,8 +17,8 @@ import pytest
 from neuronav import registry
 from neuronav.config import field_kind
 from neuronav.errors import ConfigError
-from neuronav.runner import load_scenario, run_trials
-from neuronav.sweep import plan
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.runs.sweep import plan
 
 # Settings a trial starts from, besides each scenario's smoke settings: path-integration's embodied
 # protocol (its *_s settings) does not run by default on the kinematic backend.

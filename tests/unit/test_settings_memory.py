@@ -5,9 +5,9 @@ import pytest
 
 from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
-from neuronav.scenarios.path_integration import PathIntegration, PathIntegrationConfig
-from neuronav.scenarios.swarm_homing import SwarmHoming, SwarmHomingConfig
-from neuronav.sweep import plan
+from neuronav.runs.sweep import plan
+from neuronav.scenarios.path_integration.scenario import PathIntegration, PathIntegrationConfig
+from neuronav.scenarios.swarm_homing.scenario import SwarmHoming, SwarmHomingConfig
 
 GiB = 2**30
 BIG_SWARM = {"ants": 100_000, "outbound_s": 3600.0, "homing_timeout_s": 3600.0}
@@ -16,7 +16,7 @@ BIG_SWARM = {"ants": 100_000, "outbound_s": 3600.0, "homing_timeout_s": 3600.0}
 def test_a_swarm_too_big_for_the_memory_is_refused_naming_its_settings(tmp_path, monkeypatch):
     """The issue's command: 100,000 ants for 2 h, all in range, met a 16.8 GiB MemoryError (the
     float64 trajectories alone); the estimate says about 43 GiB."""
-    monkeypatch.setattr("neuronav.sweep.available_memory_bytes", lambda: 16 * GiB)
+    monkeypatch.setattr("neuronav.runs.sweep.available_memory_bytes", lambda: 16 * GiB)
     out = tmp_path / "out"
     with pytest.raises(ConfigError) as caught:
         plan("swarm-homing", trials=1, overrides=BIG_SWARM, out_dir=out)

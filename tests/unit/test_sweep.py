@@ -10,11 +10,11 @@ import pytest
 
 from neuronav.config import field
 from neuronav.errors import ConfigError, SimulationError
-from neuronav.rundir import list_parts, read_part
-from neuronav.runner import merge_timeseries, run_scenario
-from neuronav.scenario import Scenario, ScenarioResult
-from neuronav.sweep import chunk_size_for, execute, plan_chunks, run_sweep
-from neuronav.trials import pad_value
+from neuronav.runs.rundir import list_parts, read_part
+from neuronav.runs.runner import merge_timeseries, run_scenario
+from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.sweep import chunk_size_for, execute, plan_chunks, run_sweep
+from neuronav.runs.trials import pad_value
 
 SHORT = {"outbound_steps": 100, "inbound_steps": 100, "record_trials": 2}
 
@@ -185,7 +185,7 @@ def test_a_trial_that_kills_its_worker_is_recorded_and_the_rest_finish(tmp_path)
 
 
 def test_run_trials_records_a_failed_batch_trial_by_trial():
-    from neuronav.runner import run_trials
+    from neuronav.runs.runner import run_trials
 
     result = run_trials(Flaky(), FlakyConfig(raise_seed=2), "kinematic", 4, 0)
     assert [t["status"] for t in result.trials] == ["ok", "ok", "failed", "ok"]
@@ -289,7 +289,7 @@ def test_a_scenario_returning_the_wrong_number_of_rows_fails_its_trials(tmp_path
 def test_the_progress_bar_counts_trials_and_failures_and_is_off_without_a_terminal(monkeypatch):
     import io
 
-    from neuronav.progress import Progress, progress_enabled
+    from neuronav.runs.progress import Progress, progress_enabled
 
     monkeypatch.delenv("NEURONAV_PROGRESS", raising=False)
     stream = io.StringIO()
@@ -306,7 +306,7 @@ def test_the_progress_bar_counts_trials_and_failures_and_is_off_without_a_termin
 
 
 def test_sweep_figure_leaves_out_metrics_undefined_everywhere():
-    from neuronav.sweep import plotted_metrics
+    from neuronav.runs.sweep import plotted_metrics
 
     rows = [{"trial": i, "seed": i, "status": "ok", "error": "", "adhesion_n": a, "climb_m": a / 100.0,
              "turn_rate": float("nan"), "label": "x"} for i, a in enumerate((0.0, 120.0))]
@@ -326,7 +326,7 @@ def figure_rows(x_values, metrics=15, series=("a", "b")):
 
 
 def test_sweep_figure_shows_every_metric_with_y_labels_and_categorical_grids_as_points():
-    from neuronav.sweep_figures import build_metrics_figure
+    from neuronav.runs.sweep_figures import build_metrics_figure
 
     rows = figure_rows(["tripod", "wave", "ripple"])
     fig = build_metrics_figure(rows, ["gait", "terrain"])
@@ -347,7 +347,7 @@ def test_sweep_figure_shows_every_metric_with_y_labels_and_categorical_grids_as_
 
 
 def test_sweep_figure_joins_numeric_grid_values_with_lines():
-    from neuronav.sweep_figures import build_metrics_figure
+    from neuronav.runs.sweep_figures import build_metrics_figure
 
     fig = build_metrics_figure(figure_rows([0.0, 0.1, 0.3], metrics=2, series=("a",)), ["gait", "terrain"])
     panels = [ax for ax in fig.axes if ax.axison]

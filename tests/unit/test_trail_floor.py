@@ -6,16 +6,24 @@ import dataclasses
 import numpy as np
 import pytest
 
-from neuronav.body import Camera
-from neuronav.chemistry import OdourScene
 from neuronav.errors import ConfigError
-from neuronav.odour import ImageTrail, PolylineTrail, loop_trail, rasterise, straight_trail
-from neuronav.plume import PlumeConfig
-from neuronav.raycast import RayCaster
-from neuronav.scenery import vision_appearance
-from neuronav.trail_floor import MARGIN_M, PIXEL_M, TRAIL_RGB, blend_rgb, build_trail_floor, ground_rgb_at, trail_floor
-from neuronav.vision import LUMA_WEIGHTS, pixel_directions, to_uint8
-from neuronav.world import Appearance, Ground, World
+from neuronav.scenarios.worlds.scenes import vision_appearance
+from neuronav.senses.chemistry import OdourScene
+from neuronav.senses.odour import ImageTrail, PolylineTrail, loop_trail, rasterise, straight_trail
+from neuronav.senses.plume import PlumeConfig
+from neuronav.senses.raycast import RayCaster
+from neuronav.senses.trail_floor import (
+    MARGIN_M,
+    PIXEL_M,
+    TRAIL_RGB,
+    blend_rgb,
+    build_trail_floor,
+    ground_rgb_at,
+    trail_floor,
+)
+from neuronav.senses.vision import LUMA_WEIGHTS, pixel_directions, to_uint8
+from neuronav.spec.body import Camera
+from neuronav.spec.world import Appearance, Ground, World
 
 PLAIN = Appearance(ground_texture="plain", ground_rgb=(0.7, 0.6, 0.4))
 BENT = PolylineTrail(np.array([[-1.3, -0.2], [0.4, -0.2], [0.4, 0.6]]), 0.15, 0.04)

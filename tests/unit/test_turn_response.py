@@ -1,8 +1,8 @@
-"""How the walking ant turns (scenarios/turn_response.py): turn rate and crab angle per turn command."""
+"""How the walking ant turns (scenarios/tools/turn_response.py): turn rate and crab angle per turn command."""
 
 import pytest
 
-from neuronav.scenarios.turn_response import main, turn_response
+from neuronav.scenarios.tools.turn_response import main, turn_response
 
 
 def test_the_unicycle_turns_along_its_axis_at_its_calibrated_rate():

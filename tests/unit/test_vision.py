@@ -1,11 +1,10 @@
-"""The one camera model (neuronav.vision): pixel rays, cube faces, supersampling, the sky, grey."""
+"""The one camera model (neuronav.senses.vision): pixel rays, cube faces, supersampling, the sky, grey."""
 
 import numpy as np
 import pytest
 
 from neuronav import ConfigError
-from neuronav.body import Camera
-from neuronav.vision import (
+from neuronav.senses.vision import (
     CUBE_FACE_ROTATIONS,
     average_samples,
     camera_views,
@@ -16,7 +15,8 @@ from neuronav.vision import (
     sampling_camera,
     sky_rgb,
 )
-from neuronav.world import Appearance
+from neuronav.spec.body import Camera
+from neuronav.spec.world import Appearance
 
 PANORAMA = Camera("pano", "head", (0.0, 0.0, 0.0), width_px=72, height_px=72, fov_rad=(2 * np.pi, np.pi),
                   projection="spherical")
@@ -69,7 +69,7 @@ def test_supersampling_renders_k_by_k_samples_and_averages_them():
 
 @pytest.mark.parametrize("bad", [0, 9, 2.5, True])
 def test_supersample_out_of_range_is_refused(bad):
-    from neuronav.vision import check_camera
+    from neuronav.senses.vision import check_camera
 
     with pytest.raises(ConfigError, match="supersample"):
         check_camera(Camera("eye", "head", (0.0, 0.0, 0.0), supersample=bad))

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from neuronav.config import apply_overrides
-from neuronav.runner import load_scenario, run_trials
-from neuronav.scenarios.visual_beacon import VisualBeaconConfig
-from neuronav.scenarios.visual_beacon_figures import first_views_figure, times_figure, trajectories_figure
-from neuronav.scenarios.visual_compass import VisualCompassConfig
-from neuronav.scenarios.visual_compass_figures import compass_figure, error_figure
+from neuronav.runs.runner import load_scenario, run_trials
+from neuronav.scenarios.visual_beacon.figures import first_views_figure, times_figure, trajectories_figure
+from neuronav.scenarios.visual_beacon.scenario import VisualBeaconConfig
+from neuronav.scenarios.visual_compass.figures import compass_figure, error_figure
+from neuronav.scenarios.visual_compass.scenario import VisualCompassConfig
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,397 @@
+"""``cue-integration``: path integration and visual homing combined in the ring attractor (Sun et al. 2020).
+
+The field experiment (Legge et al. 2014, J. Exp. Biol. 217: 4159; Wystrach et al. 2015, Proc. R.
+Soc. B 282: 20151484): an ant with a full home vector is captured and released at a place it knows
+from its views, where the home vector and the view point different ways; its initial heading falls
+between the two, weighted by how much it trusts each.
+
+Protocol per trial (seed s; ``docs/parameters.md``, *Cue integration*):
+
+- The world: a seeded forest (``trees`` around the nest at the origin, 8–40 m away, ``forest_seed``:
+  the same forest for every trial, so trials can run as one batch). Around the nest the ant has
+  stored ``snapshots`` panoramas on a circle of ``snapshot_radius_m``, each facing the nest (its
+  learning walks), rendered by the kinematic ray caster with the ant's own panoramic camera.
+- The home vector: the CX integrates a straight outbound walk of ``pi_distance_m`` (0.29 m per gait
+  cycle, the straight tripod's 0.45 m/s) whose home vector points ``conflict`` to one side (clockwise
+  or counter-clockwise at random) of the true nest direction seen from the release point; then the
+  ant is "carried" to the release point, ``release_distance_m`` from the nest at a random bearing,
+  facing a random heading.
+- Homing: every gait cycle the brain (:mod:`neuronav.scenarios.cue_integration.brain`) integrates, decodes the
+  PI cue, matches its panorama against the snapshots (the visual cue), feeds both into the ring
+  attractor with amplitudes shared by reliability, and steers toward the settled bump through CPU1.
+  ``cues=pi`` or ``cues=vision`` leaves the other cue out (its amplitude 0). The trial ends at the nest
+  (``nest_radius_m``) or at ``timeout_s``.
+
+Metrics per trial (angles in degrees, signed, relative to the true nest direction from the release
+point, positive toward the side the PI cue was put on): ``initial_heading_deg`` (the bearing from
+the release point of where the path first reaches ``initial_distance_m`` from it), ``pi_cue_deg`` and
+``vision_cue_deg`` (what the two cues said at release), ``weight_pi`` (the PI cue's share of the
+amplitude at release), ``predicted_heading_deg`` (the amplitude-weighted circular mean of the two cues
+at release), ``error_to_pi_deg``, ``error_to_vision_deg`` and ``error_to_prediction_deg`` (absolute
+differences of the initial heading), ``success`` (reached the nest), ``time_to_nest_s``.
+
+Measured (seed 0; README, *cue-integration*): ``neuronav run cue-integration --trials 1000`` gives mean
+initial headings of 0.1, 8.7, 16.5, 22.5, 25.2 and 20.5° for conflicts of 0–150° against weighted
+predictions of -0.1, 9.1, 19.3, 26.8, 29.8 and 23.8° (PI weight 0.33): between the cues, 0.4–4.6° on
+the visual side of the prediction; ``--set cues=pi`` and ``cues=vision`` (300 agents) follow their own
+cue within 3°. ``neuronav sweep cue-integration --grid pi_distance_m=2,5,10,20 --set conflict_deg=90
+--trials 100``: 4.9, 11.9, 25.0 and 45.3° for PI weights 0.07, 0.18, 0.33 and 0.50. The unit and
+cross-backend tests keep the shape of these findings on shorter runs.
+
+On the kinematic backend all trials run as one batch (1000 agents at once); on MuJoCo and PyBullet
+one ant per trial. The kinematic batch renders its panoramas with one ray per pixel
+(``kinematic_supersample``; the ant's camera averages 4 × 4), 16 times cheaper.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from neuronav import registry
+from neuronav.config import field
+from neuronav.engine.loop import Clocks, integer_ratio
+from neuronav.errors import ConfigError
+from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.cue_integration.brain import CueBrain, weighted_direction
+from neuronav.scenarios.trial_loop import run_loop
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
+from neuronav.scenarios.worlds.scenes import forest, vision_appearance
+from neuronav.spec.world import Ground, PointAgents, World
+
+CUE_MODES = ("both", "pi", "vision")
+OUTBOUND_STEP_M = 0.29
+FOREST_RADII_M = (8.0, 40.0)
+
+
+@dataclass
+class CueIntegrationConfig:
+    cues: str = field("both", "cues into the ring: both, pi (path integration alone) or vision (views alone)",
+                      choices=CUE_MODES)
+    conflict_deg: str = field("0,30,60,90,120,150", "angle between the PI and the visual home directions at "
+                              "release (deg, 0–180); a comma list is cycled over trials by seed")
+    pi_distance_m: float = field(10.0, "length of the outbound walk the home vector integrates (m)",
+                                 min_exclusive=0.0, max=40.0)
+    release_distance_m: float = field(4.0, "release point's distance from the nest (m)", min_exclusive=0.0,
+                                      max=8.0)
+    snapshots: int = field(16, "views stored facing the nest on a circle around it", min=1, max=128)
+    snapshot_radius_m: float = field(3.0, "radius of the circle of stored views (m)", min_exclusive=0.0, max=7.0)
+    trees: int = field(60, "trees in the forest around the nest (8–40 m away)", min=0, max=300)
+    forest_seed: int = field(1, "seed of the forest (the same world for every trial)", min=0, max=2**31 - 1)
+    band_deg: float = field(45.0, "views: the panorama's band from the horizon up to this elevation (deg)",
+                            min_exclusive=0.0, max=90.0)
+    pi_full_m: float = field(20.0, "PI reliability = min(1, home vector length / pi_full_m)", min_exclusive=0.0,
+                             max=1000.0)
+    vision_full: float = field(0.3, "visual reliability = min(1, RIDF depth / vision_full)", min_exclusive=0.0,
+                               max=1.0)
+    k_pi: float = field(1.0, "turn = k_pi (sum CPU1 left - sum CPU1 right) (eq. 3.6)", min_exclusive=0.0, max=100.0)
+    initial_distance_m: float = field(1.5, "initial heading: measured where the path first gets this far from "
+                                      "the release point (m)", min_exclusive=0.0, max=8.0)
+    nest_radius_m: float = field(0.7, "success: the body comes this close to the nest (m)", min_exclusive=0.0,
+                                 max=8.0)
+    timeout_s: float = field(30.0, "a trial gives up after this long (s): at least one gait cycle, one look",
+                             min=CYCLE_S, max=3600.0)
+    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
+                              min=1e-4, max=0.008)
+    kinematic_supersample: int = field(1, "kinematic batch: rays per pixel side of the panorama (the ant's "
+                                       "camera: 4)", min=1, max=4)
+
+    def cross_check(self) -> None:
+        conflicts_deg(self)
+        if self.nest_radius_m >= self.release_distance_m:
+            raise ConfigError(f"nest_radius_m ({self.nest_radius_m:g}) must be < release_distance_m "
+                              f"({self.release_distance_m:g}): the ant would succeed where it is released")
+
+
+def conflicts_deg(config: CueIntegrationConfig) -> tuple[float, ...]:
+    """The conflict angles of ``config.conflict_deg`` (one or a comma list, each 0–180)."""
+    try:
+        values = tuple(float(v) for v in str(config.conflict_deg).split(","))
+    except ValueError:
+        raise ConfigError(f"conflict_deg: expected an angle or a comma list of angles in degrees (0–180), "
+                          f"got {config.conflict_deg!r}") from None
+    if not values or not all(np.isfinite(v) and 0.0 <= v <= 180.0 for v in values):
+        raise ConfigError(f"conflict_deg: every angle must be within 0–180 degrees, got {config.conflict_deg!r}")
+    return values
+
+
+def trial_setup(config: CueIntegrationConfig, seed: int) -> dict[str, float]:
+    """Conflict, release bearing, start heading and the side of the conflict of trial ``seed``.
+
+    Angles in rad, clockwise from +y. The home vector points ``conflict`` clockwise (side +1) or
+    counter-clockwise (side -1) of the nest, at random: a bias of the body to one side (the calibrated
+    unicycle drifts 0.02–0.08 rad/s counter-clockwise at turn 0, as the MuJoCo tripod does) then cancels
+    in the mean instead of looking like a weight.
+    """
+    conflicts = conflicts_deg(config)
+    rng = np.random.default_rng([seed, 14])
+    bearing = float(rng.uniform(0.0, 2.0 * np.pi))
+    heading = float(rng.uniform(-np.pi, np.pi))
+    side = 1.0 if rng.random() < 0.5 else -1.0
+    nest = float(np.angle(np.exp(1j * (bearing + np.pi))))
+    conflict = float(np.radians(conflicts[seed % len(conflicts)]))
+    return {"conflict_rad": conflict, "release_m": config.release_distance_m * np.array([np.sin(bearing),
+            np.cos(bearing)]), "heading_rad": heading, "nest_rad": nest, "side": side,
+            "pi_rad": nest + side * conflict}
+
+
+def cue_world(config: CueIntegrationConfig) -> World:
+    """The nest at the origin in a forest (8–40 m away) seeded by ``forest_seed``."""
+    trees = forest(config.trees, seed=config.forest_seed, inner_radius_m=FOREST_RADII_M[0],
+                   outer_radius_m=FOREST_RADII_M[1]) if config.trees else ()
+    return World(ground=Ground(size_m=2.5 * FOREST_RADII_M[1]), objects=trees, appearance=vision_appearance())
+
+
+def panorama_camera(supersample: int | None = None):
+    """The ant's panoramic camera on a point agent (its own supersampling, or ``supersample``)."""
+    from neuronav.bodies.desert_ant import desert_ant
+
+    camera = next(c for c in point_agent_cameras(desert_ant()) if c.name == "panorama")
+    return camera if supersample is None else replace(camera, supersample=int(supersample))
+
+
+def take_snapshots(config: CueIntegrationConfig, world: World) -> np.ndarray:
+    """Skyline views (K, R, W) from ``snapshots`` points on the circle, each facing the nest."""
+    from neuronav.brains.visual_homing import skyline_view
+
+    angles = 2.0 * np.pi * np.arange(config.snapshots) / config.snapshots
+    positions = config.snapshot_radius_m * np.stack([np.sin(angles), np.cos(angles)], axis=1)
+    engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
+    with engine:
+        engine.load(world, [PointAgents(count=config.snapshots, mode="unicycle", cameras=(panorama_camera(),))])
+        engine.reset(seed=0, heading_rad=angles + np.pi, position_m=positions)
+        return skyline_view(engine.read(("panorama",))["panorama"], config.band_deg)
+
+
+def charge_home_vector(brain: CueBrain, pi_rad: np.ndarray, distance_m: float) -> None:
+    """Integrate a straight outbound walk whose home vector points ``pi_rad`` (N,), ``distance_m`` long."""
+    outbound = np.asarray(pi_rad, float) + np.pi
+    step = OUTBOUND_STEP_M * np.stack([np.sin(outbound), np.cos(outbound)], axis=1)
+    for _ in range(int(round(distance_m / OUTBOUND_STEP_M))):
+        brain.integrate(outbound, step)
+
+
+def translated(world: World, offset_m) -> World:
+    """``world`` with every object moved by ``offset_m`` (x, y): the same scene seen from elsewhere."""
+    dx, dy = (float(v) for v in offset_m)
+    objects = tuple(replace(o, position_m=(o.position_m[0] + dx, o.position_m[1] + dy, o.position_m[2]))
+                    for o in world.objects)
+    return replace(world, objects=objects)
+
+
+def start_brain(config: CueIntegrationConfig, snapshots: np.ndarray, seeds, setups) -> CueBrain:
+    """The brains of trials ``seeds``, their home vectors charged by the outbound walks."""
+    brain = CueBrain(config, snapshots, seeds)
+    charge_home_vector(brain, np.array([s["pi_rad"] for s in setups]), config.pi_distance_m)
+    return brain
+
+
+def run_kinematic(config: CueIntegrationConfig, trials: int, seed: int) -> tuple[list[dict], dict]:
+    """Every trial at once: one batch of point agents carrying the ant's panoramic camera."""
+    started = time.perf_counter()
+    world = cue_world(config)
+    seeds = [seed + i for i in range(trials)]
+    setups = [trial_setup(config, s) for s in seeds]
+    brain = start_brain(config, take_snapshots(config, world), seeds, setups)
+    releases = np.array([s["release_m"] for s in setups])
+    engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
+    body = PointAgents(count=trials, mode="unicycle", cameras=(panorama_camera(config.kinematic_supersample),))
+    controls = integer_ratio(CYCLE_S, CONTROL_S, "gait cycle / control step")
+    done_s = np.full(trials, np.nan)
+    with engine:
+        engine.load(world, [body])
+        engine.reset(seed=seed, heading_rad=np.array([s["heading_rad"] for s in setups]), position_m=releases)
+        positions = [engine.read(("position",))["position"]]
+        while engine.time < config.timeout_s - 1e-9 and np.isnan(done_s).any():
+            sensed = engine.read(("heading", "position", "panorama"))
+            turn, stride = brain(engine.time, sensed["heading"][:, 0], sensed["position"], sensed["panorama"])
+            arrived = np.isfinite(done_s)
+            turn[arrived], stride[arrived] = 0.0, 0.0
+            engine.write({"turn": turn[:, None], "stride": stride[:, None]})
+            for _ in range(controls):
+                engine.step(1)
+                near = np.hypot(*engine.read(("position",))["position"].T) <= config.nest_radius_m
+                done_s[near & np.isnan(done_s)] = engine.time
+            positions.append(engine.read(("position",))["position"])
+    wall_s = time.perf_counter() - started
+    paths = np.stack(positions, axis=1)  # (trials, cycles + 1, 2)
+    logs = {k: np.stack(v, axis=1) for k, v in brain.log.items()}
+    # A trial's record ends at its arrival: later cycles (standing at the nest) belong to no trial.
+    ended = np.where(np.isfinite(done_s), done_s, np.inf)
+    after = logs["time_s"] >= ended[:, None]
+    for key in logs:
+        logs[key][after] = np.nan
+    path_times = np.arange(paths.shape[1]) * CYCLE_S
+    paths[(path_times[None, :] > ended[:, None] + CYCLE_S - 1e-9)] = np.nan
+    rows = [dict(cue_metrics(config, setups[i], paths[i], {k: v[i] for k, v in logs.items()}, done_s[i],
+                             min(engine.time, done_s[i]) if np.isfinite(done_s[i]) else engine.time,
+                             wall_s / trials), trial=i, seed=seeds[i]) for i in range(trials)]
+    return rows, dict(logs, position_m=paths)
+
+
+def physics_trial(config: CueIntegrationConfig, backend_name: str, snapshots: np.ndarray, seed: int,
+                  video_path=None) -> tuple[dict, dict]:
+    """One ant on a physics backend: released at the origin of a world moved so the nest is where it belongs."""
+    started = time.perf_counter()
+    setup = trial_setup(config, seed)
+    release = setup["release_m"]
+    world = translated(cue_world(config), -release)
+    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s)
+    brain = start_brain(config, snapshots, [seed], [setup])
+    positions: list[np.ndarray] = []
+
+    def steer(loop) -> tuple[float, float]:
+        sensed = loop.backend.read(("heading", "position", "panorama"))
+        position = sensed["position"] + release
+        positions.append(position[0])
+        turn, stride = brain(loop.time_s, sensed["heading"][:, 0], position, sensed["panorama"])
+        return float(turn[0]), float(stride[0])
+
+    def at_nest(loop) -> bool:
+        return bool(np.hypot(*(loop.backend.read(("position",))["position"][0] + release)) <= config.nest_radius_m)
+
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
+    loop, final, _ = run_loop(engine, world, body, gait, clocks, steer, heading_rad=setup["heading_rad"], seed=seed,
+                              duration_s=config.timeout_s, until=at_nest, video_path=video_path)
+    path = np.array([*positions, final + release])
+    reached = bool(np.hypot(*(final + release)) <= config.nest_radius_m)
+    log = {k: np.array(v, float)[:, 0] for k, v in brain.log.items()}
+    row = cue_metrics(config, setup, path, log, loop.time_s if reached else np.nan, loop.time_s,
+                      time.perf_counter() - started)
+    return row, dict(log, position_m=path)
+
+
+def signed_deg(angle_rad, reference_rad) -> float:
+    """``angle - reference`` wrapped to (-180, 180] degrees."""
+    return float(np.degrees(np.angle(np.exp(1j * (angle_rad - reference_rad)))))
+
+
+def crossing_bearing(path: np.ndarray, origin: np.ndarray, distance_m: float) -> float:
+    """Bearing (rad, clockwise from +y) from ``origin`` of where ``path`` (P, 2) first reaches ``distance_m``
+    from it, interpolated along the segment that crosses; NaN if it never does."""
+    finite = path[np.isfinite(path[:, 0])] - origin
+    reach = np.hypot(finite[:, 0], finite[:, 1])
+    beyond = np.flatnonzero(reach >= distance_m)
+    if beyond.size == 0:
+        return float("nan")
+    k = int(beyond[0])
+    point = finite[k]
+    if k > 0:  # solve |a + t (b - a)| = d on the crossing segment
+        a, b = finite[k - 1], finite[k]
+        d = b - a
+        qa, qb, qc = d @ d, 2.0 * a @ d, a @ a - distance_m ** 2
+        t = (-qb + np.sqrt(max(qb * qb - 4.0 * qa * qc, 0.0))) / (2.0 * qa) if qa > 0 else 1.0
+        point = a + np.clip(t, 0.0, 1.0) * d
+    return float(np.arctan2(point[0], point[1]))
+
+
+def cue_metrics(config: CueIntegrationConfig, setup: dict, path: np.ndarray, log: dict, arrival_s: float,
+                trial_time_s: float, wall_s: float) -> dict:
+    """One trial's row: the initial heading against the two cues and their weighted prediction."""
+    nest, side = setup["nest_rad"], setup["side"]
+    initial = crossing_bearing(path, setup["release_m"], config.initial_distance_m)
+    pi_cue, vision_cue = log["pi_rad"][0], log["vision_rad"][0]
+    weight_pi = log["weight_pi"][0]
+    predicted = weighted_direction(pi_cue, weight_pi, vision_cue, 1.0 - weight_pi)
+    relative = {name: side * signed_deg(value, nest) for name, value in
+                (("initial", initial), ("pi", pi_cue), ("vision", vision_cue), ("predicted", predicted))}
+    return {
+        "success": bool(np.isfinite(arrival_s)), "status": "ok", "error": "",
+        "conflict_deg": float(np.degrees(setup["conflict_rad"])),
+        "initial_heading_deg": relative["initial"],
+        "pi_cue_deg": relative["pi"], "vision_cue_deg": relative["vision"],
+        "weight_pi": float(weight_pi), "pi_length_m": float(log["pi_length_m"][0]),
+        "vision_certainty": float(log["certainty"][0]),
+        "predicted_heading_deg": relative["predicted"],
+        "error_to_pi_deg": abs(signed_deg(initial, pi_cue)),
+        "error_to_vision_deg": abs(signed_deg(initial, vision_cue)),
+        "error_to_prediction_deg": abs(signed_deg(initial, predicted)),
+        "time_to_nest_s": float(arrival_s),
+        "trial_time_s": float(trial_time_s),
+        "real_time_factor": float(trial_time_s / wall_s) if wall_s > 0 else float("nan"),
+    }
+
+
+class CueIntegration(Scenario):
+    """PI and visual homing as two cues into the ring attractor, alone, together and in conflict."""
+
+    name = "cue-integration"
+    description = ("PI home vector + visual homing (RIDF on stored views) combined in the ring attractor, steering "
+                   "through CPU1; cue conflict by a displaced release (Sun et al. 2020; Wystrach et al. 2015)")
+    config_type = CueIntegrationConfig
+    backends = EVERY_BACKEND
+    default_backend = "kinematic"
+    records_video = True
+    timing_metrics = ("real_time_factor",)
+    # One kinematic batch of 1000 agents takes about 7 min on the 2-core machine (README): bigger runs are
+    # cut into batches of at most this many, each written (and resumable) on its own.
+    chunk_trials = 1000
+    # NaN by definition: the time to the nest of an ant that never arrives; the initial heading (and its
+    # errors) of one that never got initial_distance_m from the release point.
+    optional_metrics = ("time_to_nest_s", "initial_heading_deg", "error_to_pi_deg", "error_to_vision_deg",
+                        "error_to_prediction_deg")
+
+    def smoke_config(self) -> dict:
+        return {"timeout_s": 1.28, "trees": 6, "snapshots": 4}
+
+    def check(self, config: CueIntegrationConfig, backend: str) -> None:
+        if backend != "kinematic":
+            integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
+
+    def aggregate(self, trials: list[dict], config: CueIntegrationConfig) -> dict:
+        """Per conflict angle: the circular mean initial heading (where any was measured), the mean
+        prediction, the success rate."""
+        result = {}
+        rows = [t for t in trials if t.get("status", "ok") == "ok"]
+        for conflict in sorted({t["conflict_deg"] for t in rows}):
+            group = [t for t in rows if t["conflict_deg"] == conflict]
+            key = f"{conflict:g}"
+            initial = circular_mean_deg([t["initial_heading_deg"] for t in group])
+            if np.isfinite(initial):  # left out where no ant of the group got initial_distance_m away
+                result[f"initial_heading_{key}_deg"] = initial
+            result[f"predicted_heading_{key}_deg"] = circular_mean_deg([t["predicted_heading_deg"] for t in group])
+            result[f"success_{key}"] = float(np.mean([bool(t["success"]) for t in group]))
+        return result
+
+    def run(self, config: CueIntegrationConfig, *, backend: str, trials: int, seed: int,
+            video_path: Path | None = None) -> ScenarioResult:
+        if backend == "kinematic":
+            rows, timeseries = run_kinematic(config, trials, seed)
+        else:
+            snapshots = take_snapshots(config, cue_world(config))
+            rows, logs = [], []
+            for i in range(trials):
+                row, log = physics_trial(config, backend, snapshots, seed + i, video_path if i == 0 else None)
+                rows.append(dict(row, trial=i, seed=seed + i))
+                logs.append(log)
+            timeseries = pack_logs(logs)
+        return ScenarioResult(trials=rows, timeseries=timeseries, aggregates=self.aggregate(rows, config),
+                              simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
+
+    def figures(self, result: ScenarioResult, config: CueIntegrationConfig, out_dir: Path) -> list[Path]:
+        from neuronav.scenarios.cue_integration.figures import write_cue_figures
+
+        return write_cue_figures(result, config, Path(out_dir))
+
+
+def circular_mean_deg(values_deg) -> float:
+    """Circular mean of the finite angles (deg), NaN when there are none."""
+    values = np.radians([v for v in values_deg if np.isfinite(v)])
+    return float(np.degrees(np.angle(np.exp(1j * values).sum()))) if values.size else float("nan")
+
+
+def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
+    """Per-cycle logs of unequal length as NaN-padded arrays: (trials, cycles) and paths (trials, points, 2)."""
+    cycles = max(len(log["time_s"]) for log in logs)
+    packed = {key: np.full((len(logs), cycles), np.nan) for key in CueBrain.LOG_KEYS}
+    points = max(len(log["position_m"]) for log in logs)
+    packed["position_m"] = np.full((len(logs), points, 2), np.nan)
+    for i, log in enumerate(logs):
+        for key in CueBrain.LOG_KEYS:
+            packed[key][i, : len(log[key])] = log[key]
+        packed["position_m"][i, : len(log["position_m"])] = log["position_m"]
+    return packed

@@ -1,0 +1,206 @@
+"""Embodied path integration (the I2Bot paper's §2.3, Fig. 3): the CX walks the ant home.
+
+The Stone et al. 2017 circuit reads the body's heading and velocity once per gait cycle
+(0.64 s = 80 control steps of 8 ms) and steers the FK tripod gait through the locomotion command:
+
+    θ   = k_PI · (ΣCPU1_left − ΣCPU1_right)      (eq. 3.6; left = CPU1 8–15, right = 0–7)
+    S_l = 5° + 20° · (1 − min(|θ|, 1))            (eq. 3.7)
+
+Outbound, the ant forages: a random walk of turn commands (one per gait cycle) at a fixed
+stride, starting at the nest with an initial heading uniform in [0, 2π). Then it homes until it
+is within ``nest_radius_m`` of the nest or ``homing_timeout_s`` runs out.
+
+The velocity the CX integrates is the body's displacement over the last gait cycle (metres per
+brain step, ``velocity_input = "pose"``, smooth like the paper's supervisor input), or the root's
+instantaneous velocity sensor times the cycle length (``"measured"``: it carries the gait's
+wobble). The same protocol runs on the kinematic backend's unicycle, driven by the same command,
+so the three bodies can be compared.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from neuronav import registry
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.bodies.gaits import make_gait
+from neuronav.brains.cx import decode_home_vector, stone2017
+from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
+from neuronav.errors import ConfigError
+from neuronav.runs.scenario import ScenarioResult
+from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
+from neuronav.spec.world import Ground, PointAgents, World
+
+CYCLE_S = 0.64
+CONTROL_S = 0.008
+MIN_STRIDE_RAD = np.radians(5.0)
+EXTRA_STRIDE_RAD = np.radians(20.0)
+
+
+def steering_command(cpu1: np.ndarray, k_pi: float) -> tuple[float, float]:
+    """(turn θ, stride S_l) from CPU1 rates (16,), eqs. 3.6–3.7; θ > 0 turns left."""
+    theta = float(np.clip(k_pi * (cpu1[8:].sum() - cpu1[:8].sum()), -1.0, 1.0))
+    return theta, float(MIN_STRIDE_RAD + EXTRA_STRIDE_RAD * (1.0 - min(abs(theta), 1.0)))
+
+
+class HomingBrain:
+    """The CX, its sensing and its steering, called by the agent loop once per gait cycle."""
+
+    def __init__(self, config, seed: int, outbound_s: float) -> None:
+        self.config = config
+        self.rng = np.random.default_rng([seed, 2])
+        self.cx = stone2017(noise=config.embodied_noise, memory_gain=config.embodied_memory_gain,
+                            memory_leak=config.memory_leak).compile(batch=1, seeds=[seed])
+        self.outbound_s = outbound_s
+        self.turn = 0.0
+        self.last_position = None
+        self.turnback_memory = None
+        self.log: dict[str, list] = {k: [] for k in ("time_s", "position_m", "heading_rad", "cpu4", "fed_velocity",
+                                                     "measured_velocity", "turn", "stride_rad")}
+
+    def __call__(self, loop: AgentLoop) -> tuple[float, float]:
+        sensed = loop.backend.read(("heading", "position", "velocity"))
+        heading, position = sensed["heading"][0, 0], sensed["position"][0]
+        if self.last_position is None:
+            self.last_position = position
+        if self.config.velocity_input == "pose":
+            fed = position - self.last_position  # metres per gait cycle
+        else:
+            fed = sensed["velocity"][0] * CYCLE_S
+        self.last_position = position
+        self.cx.step({"heading": np.array([[heading]]), "velocity": fed[None, :]})
+        if loop.time_s < self.outbound_s:
+            # Foraging: a smooth random walk of turn commands at the configured stride.
+            self.turn = float(np.clip(0.7 * self.turn + self.rng.normal(0.0, self.config.foraging_turn_std),
+                                      -1.0, 1.0))
+            command = (self.turn, np.radians(self.config.foraging_stride_deg))
+        else:
+            if self.turnback_memory is None:
+                self.turnback_memory = self.cx.memory("CPU4")[0]
+            command = steering_command(self.cx.rates("CPU1")[0], self.config.k_pi)
+        for key, value in (("time_s", loop.time_s), ("position_m", position), ("heading_rad", heading),
+                           ("cpu4", self.cx.memory("CPU4")[0]), ("fed_velocity", fed / CYCLE_S),
+                           ("measured_velocity", sensed["velocity"][0]), ("turn", command[0]),
+                           ("stride_rad", command[1])):
+            self.log[key].append(np.array(value, float))
+        return command
+
+
+# Physics bounds of the embodied protocol: every trial ends in bounded time.
+MIN_TIMESTEP_S = 1e-4
+MAX_PHYSICS_PER_CONTROL = 80
+MAX_PHYSICS_STEPS = 4_000_000
+
+
+def check_embodied(config, backend_name: str) -> None:
+    """The embodied protocol's cross-field rules: a trial lasts at least one gait cycle (the brain's period);
+    on a physics backend (the kinematic one steps per control step) ``embodied_timestep_s`` at least
+    ``MIN_TIMESTEP_S`` and a whole fraction of the 8 ms control step (at
+    most ``MAX_PHYSICS_PER_CONTROL`` physics steps per control step); a trial of at most
+    ``outbound_s + homing_timeout_s`` needs at most ``MAX_PHYSICS_STEPS`` physics steps (at the default
+    2 ms: 8000 s, more than the settings' own maxima).
+
+    Raises
+    ------
+    ConfigError
+        Naming the setting and the bound.
+    """
+    trip_s = config.outbound_s + config.homing_timeout_s
+    if trip_s < CYCLE_S:  # (below one control step no trial ran at all)
+        raise ConfigError(f"outbound_s + homing_timeout_s = {trip_s:g} s is shorter than one gait cycle "
+                          f"({CYCLE_S} s), the brain's period")
+    if backend_name == "kinematic":
+        return
+    timestep_s = config.embodied_timestep_s
+    if not (np.isfinite(timestep_s) and timestep_s >= MIN_TIMESTEP_S):
+        raise ConfigError(f"embodied_timestep_s must be at least {MIN_TIMESTEP_S} s, got {timestep_s!r}")
+    ratio = integer_ratio(CONTROL_S, timestep_s, "control step (8 ms) / embodied_timestep_s")
+    if ratio > MAX_PHYSICS_PER_CONTROL:
+        raise ConfigError(f"8 ms control step / embodied_timestep_s = {ratio}: at most {MAX_PHYSICS_PER_CONTROL}")
+    steps = (config.outbound_s + config.homing_timeout_s) / timestep_s
+    if steps > MAX_PHYSICS_STEPS:
+        raise ConfigError(f"(outbound_s + homing_timeout_s) / embodied_timestep_s = {steps:.3g} physics steps per "
+                          f"trial; at most {MAX_PHYSICS_STEPS:,} (shorten the trip or raise embodied_timestep_s)")
+
+
+def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=None) -> ScenarioResult:
+    """All trials of the embodied protocol, one after another (one body per engine).
+
+    With ``video_path``, the first trial is filmed by the follow camera: an MP4 that plays in real
+    time (:func:`neuronav.scenarios.trial_loop.run_loop`).
+    """
+    check_embodied(config, backend_name)
+    rows, logs = trials_one_by_one(lambda s, video: embodied_trial(config, backend_name, s, video), trials, seed,
+                                   video_path)
+    steps = max(len(log["time_s"]) for log in logs)
+    timeseries = {}
+    for key in logs[0]:
+        sample = np.asarray(logs[0][key][0])
+        padded = np.full((trials, steps, *sample.shape), np.nan)
+        for i, log in enumerate(logs):
+            padded[i, : len(log[key])] = np.array(log[key])
+        timeseries[key] = padded
+    timeseries["turnback_s"] = np.full(trials, config.outbound_s)
+    simulated = float(np.nanmean([r["trial_time_s"] for r in rows]))
+    return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=simulated)
+
+
+def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tuple[dict, dict]:
+    """One foraging trip and homing; returns the metrics row and the per-cycle log."""
+    rng = np.random.default_rng([seed, 3])
+    heading0 = float(rng.uniform(0.0, 2.0 * np.pi))
+    world = World(ground=Ground(size_m=80.0))
+    engine_class = registry.load("backend", backend_name)
+    if backend_name == "kinematic":
+        engine, gait, physics_dt = engine_class(timestep_s=CONTROL_S), None, CONTROL_S
+        body = PointAgents(count=1, mode="unicycle")
+    else:
+        engine = engine_class(timestep_s=config.embodied_timestep_s)
+        body = desert_ant()
+        gait, physics_dt = make_gait("tripod", body), config.embodied_timestep_s
+    brain = HomingBrain(config, seed, config.outbound_s)
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
+
+    def home(lp: AgentLoop) -> bool:
+        if lp.time_s < config.outbound_s:
+            return False
+        position = lp.backend.read(("position",))["position"][0]
+        return bool(np.hypot(*position) <= config.nest_radius_m)
+
+    loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
+                                   duration_s=config.outbound_s + config.homing_timeout_s, until=home,
+                                   video_path=video_path)
+    log = {k: list(v) for k, v in brain.log.items()}
+    log["time_s"].append(np.array(loop.time_s))
+    log["position_m"].append(final)
+    for key in ("heading_rad", "cpu4", "fed_velocity", "measured_velocity", "turn", "stride_rad"):
+        log[key].append(np.full_like(log[key][-1], np.nan))
+    return embodied_metrics(log, brain, config, loop.time_s, wall_s), log
+
+
+def embodied_metrics(log: dict, brain: HomingBrain, config, trial_time_s: float, wall_s: float) -> dict:
+    """Success, homing time, closest approach, straightness and decode error of one trial."""
+    times = np.array(log["time_s"])
+    positions = np.array(log["position_m"])
+    homing = times >= config.outbound_s
+    turnback = int(np.argmax(homing)) if homing.any() else len(times) - 1
+    distance = np.hypot(positions[:, 0], positions[:, 1])
+    home_distance = float(distance[turnback])
+    homing_distance = distance[turnback:]
+    closest_index = int(np.argmin(homing_distance))
+    path = np.linalg.norm(np.diff(positions[turnback:turnback + closest_index + 1], axis=0), axis=1).sum()
+    reached = bool(homing_distance.min() <= config.nest_radius_m)
+    memory = brain.turnback_memory if brain.turnback_memory is not None else brain.cx.memory("CPU4")[0]
+    decoded, _ = decode_home_vector(memory[None, :])
+    true_home = np.arctan2(-positions[turnback, 0], -positions[turnback, 1])
+    return {
+        "success": reached, "status": "ok", "error": "",
+        "homing_time_s": float(trial_time_s - config.outbound_s) if reached else float("nan"),
+        "closest_distance_m": float(homing_distance.min()),
+        "home_distance_m": home_distance,
+        # How much of the walked homing path brought the ant nearer: 1 for a straight line.
+        "straightness": float((home_distance - homing_distance.min()) / path) if path > 0 else float("nan"),
+        "decode_error_deg": float(np.degrees(abs(np.angle(np.exp(1j * (decoded[0] - true_home)))))),
+        "trial_time_s": float(trial_time_s),
+        "real_time_factor": float(trial_time_s / wall_s) if wall_s > 0 else float("nan"),
+    }

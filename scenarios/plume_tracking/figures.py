@@ -1,0 +1,114 @@
+"""Figures of plume tracking, after the paper's Fig. 6e–g: the plume with the paths, trial 0's senses and speed.
+
+Each ``*_figure`` function draws one figure and returns it; :func:`write_plume_figures` saves them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from neuronav.runs.plotting import new_figure, save
+
+ARENA_X_M, ARENA_Y_M = (0.0, 8.0), (-2.0, 2.0)
+
+
+def write_plume_figures(result, config, out_dir: Path) -> list[Path]:
+    """plume_paths.png (Fig. 6e–f), trial0_senses.png (Fig. 6g), time_to_source.png."""
+    out_dir = Path(out_dir)
+    return [save(plume_paths_figure(result, config), out_dir / "plume_paths.png"),
+            save(senses_figure(result, config), out_dir / "trial0_senses.png"),
+            save(times_figure(result, config), out_dir / "time_to_source.png")]
+
+
+def plume_paths_figure(result, config):
+    """Trial 0's plume at its end (log concentration, the live puffs as dots) under every trial's path."""
+    from matplotlib.colors import LogNorm
+    from matplotlib.patches import Circle
+
+    fig, ax = new_figure((9, 5))
+    raster = np.asarray(result.timeseries["plume_raster"][0], float)
+    shown = np.where(raster > config.threshold, raster, np.nan)
+    positive = raster[raster > config.threshold]
+    if positive.size:
+        image = ax.imshow(shown, extent=(*ARENA_X_M, *ARENA_Y_M), origin="upper", cmap="magma_r",
+                          norm=LogNorm(vmin=config.threshold, vmax=max(float(positive.max()), config.threshold * 10)),
+                          gid="plume", interpolation="nearest")
+        fig.colorbar(image, ax=ax, label="odour (amount/m³), trial 0 at its end", shrink=0.8)
+    puffs = result.timeseries["puffs_m"][0]
+    puffs = puffs[np.isfinite(puffs[:, 0])]
+    ax.plot(puffs[:, 0], puffs[:, 1], ".", color="tab:purple", ms=1.5, alpha=0.5, gid="puffs")
+    for i, trial in enumerate(result.trials):
+        path = result.timeseries["position_m"][i]
+        path = path[np.isfinite(path[:, 0])]
+        colour = "tab:green" if trial["success"] else "tab:grey"
+        ax.plot(path[:, 0], path[:, 1], color=colour, lw=1.6 if i == 0 else 0.9, alpha=1.0 if i == 0 else 0.7,
+                gid=f"trial {i}")
+        ax.plot(path[0, 0], path[0, 1], "^", color=colour, ms=5)
+    ax.add_patch(Circle((config.source_x_m, 0.0), config.success_radius_m, fill=False, ls="--", color="k",
+                        gid="source radius"))
+    ax.plot(config.source_x_m, 0.0, "k*", ms=12, label="source")
+    ax.annotate("", xy=(7.6, 1.7), xytext=(6.6, 1.7), arrowprops=dict(arrowstyle="->", lw=1.5))
+    ax.text(7.1, 1.78, f"wind {config.wind_mps:g} m/s", ha="center", fontsize=8)
+    ax.set_xlim(min(ARENA_X_M[0], np.nanmin(result.timeseries["position_m"][..., 0]) - 0.3),
+                max(ARENA_X_M[1], np.nanmax(result.timeseries["position_m"][..., 0]) + 0.3))
+    ax.set_ylim(min(ARENA_Y_M[0], np.nanmin(result.timeseries["position_m"][..., 1]) - 0.3),
+                max(ARENA_Y_M[1], np.nanmax(result.timeseries["position_m"][..., 1]) + 0.3))
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    reached = sum(bool(t["success"]) for t in result.trials)
+    ax.set_title(f"plume tracking (odour {config.odour}): {reached}/{len(result.trials)} reached the source "
+                 f"(green), trial 0 bold")
+    return fig
+
+
+def senses_figure(result, config):
+    """Trial 0 over time: odour at both tips (log), the ant's speed, the wind at the tips (Fig. 6g)."""
+    fig, axes = new_figure((8, 6), nrows=3, sharex=True)
+    ts = result.timeseries
+    t = ts["time_s"][0]
+    keep = np.isfinite(t)
+    t = t[keep]
+    odour = ts["odour"][0][keep]
+    for k, (side, colour) in enumerate((("left", "tab:blue"), ("right", "tab:red"))):
+        axes[0].semilogy(t, np.maximum(odour[:, k], config.threshold / 100), color=colour, lw=0.9,
+                         label=f"{side} antenna", gid=f"odour {side}")
+    axes[0].axhline(config.threshold, color="k", ls=":", lw=1, label="threshold")
+    axes[0].set_ylabel("odour (amount/m³)")
+    axes[0].legend(loc="upper left", fontsize=8)
+    path = ts["position_m"][0][keep]
+    speed = np.hypot(*np.diff(path, axis=0).T) / np.maximum(np.diff(t), 1e-12)
+    axes[1].plot(t[1:], speed, color="k", lw=0.9, gid="speed")
+    axes[1].set_ylabel("speed (m/s)")
+    wind = ts["wind_mps"][0][keep]
+    for k, (label, colour) in enumerate((("w_x", "tab:orange"), ("w_y", "tab:cyan"))):
+        axes[2].plot(t, wind[:, 0, k], color=colour, lw=1.0, label=f"{label} (left tip)", gid=f"wind {label}")
+    axes[2].set_ylabel("wind (m/s)")
+    axes[2].set_xlabel("time (s)")
+    axes[2].legend(loc="upper left", fontsize=8)
+    trial = result.trials[0]
+    outcome = f"reached the source at {trial['time_to_source_s']:.1f} s" if trial["success"] else "did not arrive"
+    axes[0].set_title(f"trial 0 (odour {config.odour}): {outcome}")
+    return fig
+
+
+def times_figure(result, config):
+    """Each trial's time to the source (reached) or the time limit (not reached, open circles)."""
+    fig, ax = new_figure((5, 4))
+    times = np.array([t["time_to_source_s"] for t in result.trials], float)
+    reached = np.isfinite(times)
+    x = np.arange(len(times))
+    ax.plot(x[reached], times[reached], "o", color="tab:green", label="reached", gid="reached")
+    ax.plot(x[~reached], np.full((~reached).sum(), config.timeout_s), "o", mfc="none", color="tab:grey",
+            label="time limit (not reached)", gid="not reached")
+    if reached.any():
+        ax.axhline(np.median(times[reached]), color="tab:green", ls="--", lw=1,
+                   label=f"median {np.median(times[reached]):.1f} s")
+    ax.set_xlabel("trial")
+    ax.set_ylabel("time to the source (s)")
+    ax.set_ylim(0, config.timeout_s * 1.08)
+    ax.set_title(f"odour {config.odour}: {int(reached.sum())}/{len(times)} reached the source")
+    ax.legend(loc="lower right", fontsize=8)
+    return fig

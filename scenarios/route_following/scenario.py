@@ -1,0 +1,516 @@
+"""Route following by visual familiarity: a mushroom body learns a route's views, then steers the ant along it.
+
+After Ardin et al. 2016, Baddeley et al. 2012 and Kodzhabashev & Mangan 2015 (``docs/parameters.md`` §9).
+Each trial grows a seeded forest about a fixed meandering route (:mod:`neuronav.scenarios.tools.mb_familiarity`:
+a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` long).
+
+1. **Training**: the ant walks the route under guidance (pure pursuit of the route point 1 m ahead
+   of the nearest one) and, ``views_per_cycle`` times per gait cycle (0.64 s), stores its panoramic
+   view in the mushroom body (:func:`neuronav.brains.mushroom_body.mushroom_body`, panorama code, learning on).
+2. **Test**: the ant is put back at the route's start (displaced ``release_offset_m`` to the right
+   of it for a catchment test), facing the route's first heading, and only the mushroom body
+   steers, once per gait cycle, by ``strategy``:
+
+   - ``scan``: the panorama is judged at headings within ±``scan_deg`` in ``scan_step_deg`` (10°)
+     steps (the view turned on the spot is the panorama rolled by whole columns); the ant turns
+     toward the least novel one: turn θ = clip(−offset / ``scan_full_turn_deg``, −1, 1)
+     (θ > 0 turns left), stride 20°;
+   - ``klinokinesis``: the ant turns alternately left and right by θ = ±0.6 · min(1, 8 · novelty /
+     active KCs) (``klinokinesis_max_turn``, ``klinokinesis_gain``), stride 20°: straight where the
+     view is familiar, zig-zagging where it is novel. The widest turn stays below ±0.75, where
+     differential stride turns the ant on the spot and it stops making way (gain 2 with turns up to
+     ±1: 0/10, 52 % of checkpoints on the kinematic unicycle).
+
+The scan's gain and views per stride are the body's own where the settings leave them at 0
+(:func:`body_steering`): 30° and one view on the kinematic unicycle, 45° and four views averaged on
+the physics ants, whose heading sways within a stride and overshoots at the unicycle's gain.
+``travel_aligned_views`` (on) stores each training view turned to face the way the ant moved over
+its last gait cycle: the walking ant crabs toward the inside of a turn (MuJoCo: 7.6-8.2° at θ = ±0.2,
+PyBullet 10.1-13.0°; ``python -m neuronav.scenarios.tools.turn_response``), so body-aligned views taken in a bend
+face off the path, and a test ant that holds that heading without turning walks off the route.
+
+Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came
+within ``reach_m`` of, the mean and maximum distance of the test path from the route, success (the
+last checkpoint reached), the views stored. The kinematic backend's eyes are the ant's panoramic
+camera at one ray per pixel; the physics backends render the ant's own camera.
+
+Measured with the defaults (2026-11-26; README "route-following" has the commands): seeds 1-4,
+``neuronav compare``: kinematic 4/4, MuJoCo 4/4, PyBullet 3/4 (98 % of checkpoints); seeds 5-10:
+MuJoCo 6/6, PyBullet 5/6. Kinematic, seeds 1-10: scan 9/10 reach the end, 99 % of checkpoints, mean
+distance 0.20 m; klinokinesis 4/10, 87 %; scan released 0.5 m right: 9/10, 67 %; 1 m right or left:
+1/10 and 0/10, 2 %. Klinokinesis on MuJoCo (seeds 1-3): 0/3, 63 %; on PyBullet (1-2): 1/2, 75 %. The slow tests of
+``tests/unit/test_route_following.py`` keep the kinematic scan and klinokinesis numbers. With the
+unicycle's settings on the physics ants (``--set travel_aligned_views=false --set
+scan_full_turn_deg=30 --set test_views_per_cycle=1``): MuJoCo 4/4, PyBullet 0/4 (50-70 %).
+Batched (``neuronav run route-following --trials 1000 --seed 1 --set forest_seed=1 --set
+release_jitter_m=0.2``, one shared forest): 846/1000 reach the end, 92 % of checkpoints, mean
+distance 0.34 m; 513-522 s for the 1000 agents on a shared 2-core machine (re-run with the
+travel-aligned views on: the same numbers).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from neuronav import registry
+from neuronav.bodies.desert_ant import desert_ant
+from neuronav.brains.mushroom_body import (
+    PANORAMA_COLUMNS,
+    PANORAMA_ROWS,
+    kc_sparsity,
+    mushroom_body,
+    novelty,
+    panorama_code,
+)
+from neuronav.config import field
+from neuronav.engine.loop import AgentLoop, Clocks
+from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.tools.mb_familiarity import SPACING_M, forest_world, panoramas, route
+from neuronav.scenarios.trial_loop import pack_cycle_logs
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
+from neuronav.spec.world import PointAgents
+
+STRIDE_RAD = np.radians(20.0)
+LOOKAHEAD_M = 1.0
+COLUMN_DEG = 5.0  # one column of the 72-column panorama
+LOG_KEYS = ("time_s", "heading_rad", "novelty", "turn", "kc_active")
+
+
+@dataclass
+class RouteFollowingConfig:
+    strategy: str = field("scan", "how the mushroom body steers: scan (turn toward the least novel of several "
+                          "headings) or klinokinesis (zig-zag, wider where the view is novel)",
+                          choices=("scan", "klinokinesis"))
+    route_m: float = field(10.0, "length of the trained route (m)", min=2.0, max=100.0)
+    release_offset_m: float = field(0.0, "test release this far right (+) or left (-) of the route's start (m)",
+                                    min=-10.0, max=10.0)
+    duration_s: float = field(60.0, "test time limit (s)", min_exclusive=0.0, max=3600.0)
+    scan_deg: float = field(60.0, "scan: headings judged within ± this of the current one (deg)", min=10.0,
+                            max=180.0)
+    n_kc: int = field(4000, "Kenyon cells", min=100, max=40000)
+    views_per_cycle: int = field(4, "training: views stored (and guidance updates) per gait cycle",
+                                 choices=(1, 2, 4, 8))
+    checkpoint_every_m: float = field(1.0, "route checkpoints this far apart (m)", min=0.1, max=10.0)
+    reach_m: float = field(0.5, "a checkpoint is reached within this distance (m)", min_exclusive=0.0, max=5.0)
+    landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
+    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
+                              min=1e-4, max=0.008)
+    scan_full_turn_deg: float = field(0.0, "scan: the least novel heading this far off (or more) turns at θ = ±1; "
+                                      "smaller offsets turn proportionally less (deg); 0: the body's own (30 on the "
+                                      "kinematic unicycle, 45 on the physics ants)", min=0.0, max=180.0)
+    test_views_per_cycle: int = field(0, "test: views judged per gait cycle, their novelty averaged for the one turn "
+                                      "per cycle (the kinematic batch judges one); 0: the body's own (1 on the "
+                                      "kinematic unicycle, 4 on the physics ants, whose heading sways in a stride)",
+                                      choices=(0, 1, 2, 4, 8))
+    travel_aligned_views: bool = field(True, "training: store each view turned to face the way the ant moved over its "
+                                       "last gait cycle rather than the way its body points")
+    scan_step_deg: float = field(10.0, "scan: the judged headings lie this far apart (deg; whole panorama columns)",
+                                 choices=(5.0, 10.0, 20.0))
+    klinokinesis_gain: float = field(8.0, "klinokinesis: θ = ±max_turn · min(1, gain · novelty / active KCs)",
+                                     min_exclusive=0.0, max=100.0)
+    klinokinesis_max_turn: float = field(0.6, "klinokinesis: the widest turn θ (at ±1 the ant turns on the spot)",
+                                         min_exclusive=0.0, max=1.0)
+    forest_seed: int = field(-1, "seed of one forest (and KC wiring) shared by every trial, whose route is then "
+                             "learnt once and, on the kinematic backend, tested by all trials as one batch of "
+                             "agents; -1: each trial grows its own forest from its seed (trials one at a time)",
+                             min=-1, max=2**31 - 1)
+    release_jitter_m: float = field(0.0, "each trial's release moved by a seeded Gaussian offset of this standard "
+                                    "deviation on each axis (m)", min=0.0, max=5.0)
+
+
+# The scan's steering constants per body where the settings leave them at 0 (measured, seeds 1-4 and 1-10:
+# the physics ants overshoot at the unicycle's gain and sway within a stride; README "route-following").
+UNICYCLE_STEERING = {"scan_full_turn_deg": 30.0, "test_views_per_cycle": 1}
+PHYSICS_ANT_STEERING = {"scan_full_turn_deg": 45.0, "test_views_per_cycle": 4}
+
+
+def body_steering(config: RouteFollowingConfig, backend: str) -> RouteFollowingConfig:
+    """The settings with the scan gain and test views per cycle left at 0 replaced by the body's own."""
+    own = UNICYCLE_STEERING if backend == "kinematic" else PHYSICS_ANT_STEERING
+    return replace(config, **{key: value for key, value in own.items() if not getattr(config, key)})
+
+
+def wrap_rad(angle):
+    """Angles wrapped to [-π, π)."""
+    return (np.asarray(angle, float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+def make_route_engine(backend_name: str, timestep_s: float):
+    """(engine, body, gait, physics step): the ant on a physics backend, or the kinematic unicycle with
+    the ant's panoramic camera at one ray per pixel (the supersampled one costs 16x the rays)."""
+    if backend_name != "kinematic":
+        return make_engine(backend_name, timestep_s)
+    camera = next(c for c in point_agent_cameras(desert_ant()) if c.name == "panorama")
+    body = PointAgents(count=1, mode="unicycle", cameras=(replace(camera, supersample=1),))
+    return registry.load("backend", "kinematic")(timestep_s=CONTROL_S), body, None, CONTROL_S
+
+
+class RouteMemory:
+    """The mushroom body of one ant: a learner (batch 1) and a judge (one agent per scanned heading)."""
+
+    def __init__(self, config: RouteFollowingConfig, seed: int) -> None:
+        circuit = mushroom_body(n_pn=PANORAMA_ROWS * PANORAMA_COLUMNS, n_kc=config.n_kc, seed=seed)
+        self.circuit = circuit
+        step_columns = int(round(config.scan_step_deg / COLUMN_DEG))
+        steps = int(config.scan_deg // (step_columns * COLUMN_DEG))
+        self.rolls = np.arange(-steps, steps + 1) * step_columns  # columns
+        self.learner = circuit.compile(batch=1)
+        self.judge = circuit.compile(batch=len(self.rolls))
+        self.views = 0
+
+    def learn(self, panorama: np.ndarray) -> None:
+        self.learner.step({"pn": panorama_code(panorama), "learning": np.ones((1, 1))})
+        self.views += 1
+
+    def freeze(self) -> None:
+        """Give the judge the learnt weights (every scanned heading judged by the same memory)."""
+        self.judge.set_weights("KC->MBON", self.learner.weights("KC->MBON"))
+
+    def scan(self, panorama: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        """Heading offsets (deg, + right), their novelty, and the share of KCs active looking ahead."""
+        codes = np.concatenate([panorama_code(np.roll(panorama, k, axis=-1)) for k in self.rolls])
+        values = novelty(self.judge, codes)
+        ahead = int(np.flatnonzero(self.rolls == 0)[0])
+        return -self.rolls * COLUMN_DEG, values, float(kc_sparsity(self.judge)[ahead])
+
+
+class GuidedLearning:
+    """Training steering: pure pursuit along the route, a view stored at every call.
+
+    With ``travel_aligned`` each view is stored turned to face the way the ant moved over its last
+    gait cycle (``calls_per_cycle`` calls), not the way its body points: a legged body turning
+    under differential stride walks crabwise (the body axis several degrees off its path), and a
+    memory of body-aligned views would then steer the test ant, which walks along its body axis,
+    off the route (see :mod:`neuronav.scenarios.tools.turn_response`). The turned view is the panorama rolled by
+    whole columns (5°), as in the test's scan.
+    """
+
+    def __init__(self, route_m: np.ndarray, memory: RouteMemory, calls_per_cycle: int = 1,
+                 travel_aligned: bool = False) -> None:
+        self.route_m, self.memory = route_m, memory
+        self.calls_per_cycle, self.travel_aligned = calls_per_cycle, travel_aligned
+        self.positions: list[np.ndarray] = []
+        self.crab_deg: list[float] = []
+        self.done = False
+
+    def __call__(self, loop: AgentLoop) -> tuple[float, float]:
+        sensed = loop.backend.read(("position", "heading", "panorama"))
+        position, heading = sensed["position"][0], float(sensed["heading"][0, 0])
+        self.positions.append(position.copy())
+        self.memory.learn(np.roll(sensed["panorama"], self.view_roll_columns(heading), axis=-1))
+        nearest = int(np.argmin(np.hypot(*(self.route_m - position).T)))
+        target = self.route_m[min(nearest + int(round(LOOKAHEAD_M / SPACING_M)), len(self.route_m) - 1)]
+        desired = np.arctan2(target[0] - position[0], target[1] - position[1])
+        error = float(wrap_rad(desired - heading))  # positive: the target lies to the right
+        self.done = nearest >= len(self.route_m) - 1 or np.hypot(*(self.route_m[-1] - position)) < 0.3
+        return float(np.clip(-error / np.radians(45.0), -1.0, 1.0)), STRIDE_RAD
+
+    def view_roll_columns(self, heading_rad: float) -> int:
+        """Columns to roll the panorama so that it faces the way the ant moved over its last gait cycle (the
+        chord from the position a cycle ago; 0 when not ``travel_aligned``, in the first cycle, or standing
+        still). Headings are clockwise from +y. The body's sway within the stride is rolled out with the
+        crab; in a steady turn the chord lags the current direction of travel by half the cycle's turn."""
+        if not self.travel_aligned or len(self.positions) <= self.calls_per_cycle:
+            return 0
+        moved = self.positions[-1] - self.positions[-1 - self.calls_per_cycle]
+        if np.hypot(*moved) < 1e-3:
+            return 0
+        crab_deg = float(np.degrees(wrap_rad(np.arctan2(moved[0], moved[1]) - heading_rad)))  # + travel to the right
+        self.crab_deg.append(crab_deg)
+        return -int(round(crab_deg / COLUMN_DEG))  # rolling k columns faces -5k° (+ right), as in the scan
+
+
+def familiarity_turn(strategy: str, memory: RouteMemory, offsets: np.ndarray, values: np.ndarray, active: float,
+                     side: float, full_turn_deg: float = 30.0, klinokinesis_gain: float = 2.0,
+                     klinokinesis_max_turn: float = 1.0) -> float:
+    """The turn (θ > 0 left) the mushroom body gives for the novelty ``values`` of the scanned heading
+    ``offsets`` (deg, + right; :meth:`RouteMemory.scan`); ``side`` (±1) is klinokinesis's turn direction
+    this cycle, ``active`` the share of KCs active looking ahead; scan turns at ±1 from ``full_turn_deg`` off,
+    klinokinesis by ±``klinokinesis_max_turn`` · min(1, ``klinokinesis_gain`` · novelty / active KCs)."""
+    if strategy == "scan":
+        return float(np.clip(-offsets[int(np.argmin(values))] / full_turn_deg, -1.0, 1.0))
+    ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+    kcs = max(active * memory.learner.rates("KC").shape[1], 1.0)
+    return side * klinokinesis_max_turn * min(1.0, klinokinesis_gain * ahead / kcs)
+
+
+class FamiliaritySteering:
+    """Test steering: the mushroom body alone, by scanning or by klinokinesis."""
+
+    def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float,
+                 views_per_cycle: int = 1, full_turn_deg: float = 30.0,
+                 klinokinesis: tuple[float, float] = (2.0, 1.0)) -> None:
+        self.strategy, self.memory, self.route_m, self.reach_m = strategy, memory, route_m, reach_m
+        self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
+        self.log["position_m"] = []
+        self.side = 1.0
+        self.views_per_cycle, self.ticks, self.turn = views_per_cycle, 0, 0.0
+        self.full_turn_deg, self.klinokinesis = full_turn_deg, klinokinesis
+        self.recent: list[np.ndarray] = []
+
+    def __call__(self, loop: AgentLoop) -> tuple[float, float]:
+        """Called ``views_per_cycle`` times per gait cycle; turns once per cycle, on the novelty averaged over
+        the last ``views_per_cycle`` views (so that the body's sway within a stride averages out)."""
+        sensed = loop.backend.read(("position", "heading", "panorama"))
+        offsets, values, active = self.memory.scan(sensed["panorama"])
+        self.recent = [*self.recent, values][-self.views_per_cycle:]
+        self.ticks += 1
+        if (self.ticks - 1) % self.views_per_cycle:
+            return self.turn, STRIDE_RAD
+        self.side = -self.side
+        ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+        turn = self.turn = familiarity_turn(self.strategy, self.memory, offsets, np.mean(self.recent, axis=0), active,
+                                            self.side, self.full_turn_deg, *self.klinokinesis)
+        for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
+                           ("turn", turn), ("kc_active", active)):
+            self.log[key].append(float(value))
+        self.log["position_m"].append(sensed["position"][0].copy())
+        return turn, STRIDE_RAD
+
+    def arrived(self, loop: AgentLoop) -> bool:
+        """Within ``reach_m`` of the route's end (checked every control step)."""
+        position = loop.backend.read(("position",))["position"][0]
+        return bool(np.hypot(*(position - self.route_m[-1])) < self.reach_m)
+
+
+def release_point(points: np.ndarray, headings: np.ndarray, offset_m: float) -> np.ndarray:
+    """The route's start moved ``offset_m`` to the right of its first heading (negative: left)."""
+    h = headings[0]
+    return points[0] + offset_m * np.array([np.cos(h), -np.sin(h)])
+
+
+def world_seed(config: RouteFollowingConfig, seed: int) -> int:
+    """The seed of a trial's forest and KC wiring: the shared ``forest_seed``, or the trial's own."""
+    return config.forest_seed if config.forest_seed >= 0 else seed
+
+
+def trial_release(config: RouteFollowingConfig, points: np.ndarray, headings: np.ndarray, seed: int) -> np.ndarray:
+    """A trial's release point: ``release_offset_m`` right of the start, plus its seeded jitter."""
+    jitter = np.random.default_rng(seed).normal(0.0, 1.0, 2) * config.release_jitter_m
+    return release_point(points, headings, config.release_offset_m) + jitter
+
+
+def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
+                landscape: bool = False) -> tuple[dict, dict]:
+    """One trial: train along the route, test from the release point; the metrics row and the logs."""
+    config = body_steering(config, backend_name)
+    points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
+    world = forest_world(points, seed=world_seed(config, seed))
+    engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s)
+    memory = RouteMemory(config, world_seed(config, seed))
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.test_views_per_cycle)
+    training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
+                             brain_dt_s=CYCLE_S / config.views_per_cycle)
+    steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m, config.test_views_per_cycle,
+                                   config.scan_full_turn_deg, (config.klinokinesis_gain, config.klinokinesis_max_turn))
+    with engine:
+        engine.load(world, [body])
+        guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views)
+        training = AgentLoop(engine, gait, training_clocks, steering=guide)
+        training.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
+        training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
+        memory.freeze()
+        test = AgentLoop(engine, gait, clocks, steering=steering)
+        start = trial_release(config, points, headings, seed)
+        test.reset(seed=seed, position_m=tuple(start), yaw_rad=np.pi / 2 - headings[0])
+        test.run(config.duration_s, until=steering.arrived)
+        final = engine.read(("position",))["position"][0]
+        test_time_s = test.time_s
+    log = {k: np.array(v, float) for k, v in steering.log.items() if k != "position_m"}
+    log["position_m"] = np.array([*steering.log["position_m"], final]).reshape(-1, 2)
+    log["train_position_m"] = np.array(guide.positions).reshape(-1, 2)
+    if landscape:
+        log.update(familiarity_landscape(memory, world, points, headings))
+    return route_metrics(log["position_m"], points, config, memory.views, test_time_s), log
+
+
+def route_metrics(path_m: np.ndarray, points: np.ndarray, config: RouteFollowingConfig, views: int,
+                  test_time_s: float) -> dict:
+    """Checkpoints reached, distances from the route, success (the last checkpoint reached).
+
+    The path (one position per gait cycle) is taken as straight between its points, sampled every
+    5 cm, so that a checkpoint passed between two looks counts.
+    """
+    path_m = densify(path_m, 0.05)
+    every = max(1, int(round(config.checkpoint_every_m / SPACING_M)))
+    checkpoints = points[every::every]
+    if not len(checkpoints) or not np.array_equal(checkpoints[-1], points[-1]):
+        checkpoints = np.vstack([checkpoints.reshape(-1, 2), points[-1]])
+    to_checkpoint = np.hypot(*(checkpoints[:, None, :] - path_m[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    reached = to_checkpoint <= config.reach_m
+    from_route = np.hypot(*(path_m[:, None, :] - points[None, :, :]).transpose(2, 0, 1)).min(axis=1)
+    return {
+        "success": bool(reached[-1]), "status": "ok", "error": "",
+        "checkpoints_reached": float(reached.mean()),
+        "mean_distance_m": float(from_route.mean()),
+        "max_distance_m": float(from_route.max()),
+        "final_distance_to_goal_m": float(np.hypot(*(path_m[-1] - points[-1]))),
+        "views_stored": float(views),
+        "test_time_s": float(test_time_s),
+    }
+
+
+def densify(path_m: np.ndarray, step_m: float) -> np.ndarray:
+    """The polyline ``path_m`` (P, 2) with points added so that none lies more than ``step_m`` apart."""
+    pieces = [path_m[:1]]
+    for a, b in zip(path_m[:-1], path_m[1:]):
+        count = max(1, int(np.ceil(np.hypot(*(b - a)) / step_m)))
+        pieces.append(a + (b - a) * (np.arange(1, count + 1) / count)[:, None])
+    return np.concatenate(pieces)
+
+
+def familiarity_landscape(memory: RouteMemory, world, points: np.ndarray, headings: np.ndarray,
+                          shape=(9, 13), margin_m: float = 3.0) -> dict:
+    """Relative novelty (novelty / active KCs; NaN where no KC fires, e.g. inside a tree's crown) on a
+    grid about the route, each point facing the heading of its nearest route point (ray cast with the
+    kinematic backend's eyes)."""
+    low, high = points.min(axis=0) - margin_m, points.max(axis=0) + margin_m
+    xs, ys = np.linspace(low[0], high[0], shape[1]), np.linspace(low[1], high[1], shape[0])
+    grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
+    nearest = np.argmin(np.hypot(*(grid[:, None, :] - points[None, :, :]).transpose(2, 0, 1)), axis=1)
+    codes = panorama_code(panoramas(world, grid, headings[nearest]))
+    values = novelty(memory.judge, codes)
+    active = novelty(memory.circuit.compile(batch=memory.judge.batch), codes)  # nothing learnt: every active KC
+    relative = np.divide(values, active, out=np.full_like(values, np.nan), where=active > 0)
+    return {"landscape_x_m": xs, "landscape_y_m": ys, "landscape_novelty": relative.reshape(shape)}
+
+
+class RouteFollowing(Scenario):
+    """Learn a route's views with the mushroom body, then follow it by familiarity alone."""
+
+    name = "route-following"
+    description = ("learn a forest route's views in one guided walk (mushroom body), then follow it by "
+                   "familiarity: scanning or klinokinesis; displaced releases give the catchment")
+    config_type = RouteFollowingConfig
+    backends = EVERY_BACKEND
+    default_backend = "kinematic"
+    chunk_trials = 1000  # kinematic batches (shared forest) of at most this many agents
+
+    def smoke_config(self) -> dict:
+        return {"route_m": 2.0, "duration_s": 4.0, "n_kc": 500, "landscape": False}
+
+    def leading_series(self, config: RouteFollowingConfig, backend: str) -> dict[str, int]:
+        """The route (the same in every trial) and the first trial's landscape, stored once."""
+        return dict.fromkeys(("route_m", "landscape_x_m", "landscape_y_m", "landscape_novelty"), 1)
+
+    def check(self, config: RouteFollowingConfig, backend: str) -> None:
+        from neuronav.engine.loop import integer_ratio
+
+        if backend != "kinematic":
+            integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
+
+    def run(self, config: RouteFollowingConfig, *, backend: str, trials: int, seed: int,
+            video_path: Path | None = None) -> ScenarioResult:
+        config = body_steering(config, backend)
+        if backend == "kinematic" and config.forest_seed >= 0 and config.test_views_per_cycle == 1:
+            rows, logs = run_kinematic_batch(config, [seed + i for i in range(trials)], landscape=config.landscape)
+            rows = [dict(row, trial=i, seed=seed + i) for i, row in enumerate(rows)]
+            return ScenarioResult(trials=rows, timeseries=pack_route_logs(logs, config),
+                                  simulated_time_s=config.duration_s)
+        rows, logs = [], []
+        for i in range(trials):
+            row, log = route_trial(config, backend, seed + i, landscape=(i == 0 and config.landscape
+                                                                         and backend == "kinematic"))
+            rows.append(dict(row, trial=i, seed=seed + i))
+            logs.append(log)
+        return ScenarioResult(trials=rows, timeseries=pack_route_logs(logs, config),
+                              simulated_time_s=config.duration_s)
+
+    def figures(self, result: ScenarioResult, config: RouteFollowingConfig, out_dir: Path) -> list[Path]:
+        from neuronav.scenarios.route_following.figures import write_route_figures
+
+        return write_route_figures(result, config, Path(out_dir))
+
+
+def pack_route_logs(logs: list[dict], config: RouteFollowingConfig) -> dict[str, np.ndarray]:
+    """The trials' logs as NaN-padded arrays (trials, cycles, ...), the route and the first trial's landscape."""
+    timeseries = pack_cycle_logs(logs, LOG_KEYS)
+    longest = max(len(log["train_position_m"]) for log in logs)
+    timeseries["train_position_m"] = np.full((len(logs), longest, 2), np.nan)
+    for i, log in enumerate(logs):
+        timeseries["train_position_m"][i, :len(log["train_position_m"])] = log["train_position_m"]
+    timeseries["route_m"] = route(int(round(config.route_m / SPACING_M)) + 1)[0][None]
+    if "landscape_novelty" in logs[0]:
+        for key in ("landscape_x_m", "landscape_y_m", "landscape_novelty"):
+            timeseries[key] = logs[0][key][None]  # the first trial's, with a trial axis of one
+    return timeseries
+
+
+def train_once(config: RouteFollowingConfig, world, points: np.ndarray, headings: np.ndarray,
+               memory: RouteMemory) -> np.ndarray:
+    """The guided training walk on the kinematic unicycle (one agent); the learnt memory frozen. Its path."""
+    engine, body, gait, physics_dt = make_route_engine("kinematic", config.timestep_s)
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.views_per_cycle)
+    guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views)
+    with engine:
+        engine.load(world, [body])
+        training = AgentLoop(engine, gait, clocks, steering=guide)
+        training.reset(seed=0, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
+        training.run(10.0 * config.route_m, until=lambda loop: guide.done)
+    memory.freeze()
+    return np.array(guide.positions).reshape(-1, 2)
+
+
+def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscape: bool = False):
+    """Every trial at once in the shared forest (``forest_seed``): the route learnt once, then one point agent
+    per trial released at its own (seeded) point, each steered by the same memory. Rows and logs per trial.
+
+    A trial's numbers do not depend on the batch: its release comes from its seed, and every agent's
+    panorama is judged on its own, exactly as a trial run alone.
+    """
+    config = body_steering(config, "kinematic")
+    points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
+    world = forest_world(points, seed=config.forest_seed)
+    memory = RouteMemory(config, config.forest_seed)
+    train_path = train_once(config, world, points, headings, memory)
+    n = len(seeds)
+    starts = np.array([trial_release(config, points, headings, s) for s in seeds])
+    engine, body, _, _ = make_route_engine("kinematic", config.timestep_s)
+    body = replace(body, count=n)
+    controls = int(round(CYCLE_S / CONTROL_S))
+    done_s, final = np.full(n, np.nan), np.full((n, 2), np.nan)
+    logs = [dict({k: [] for k in LOG_KEYS}, position_m=[]) for _ in seeds]
+    sides = np.ones(n)
+    with engine:
+        engine.load(world, [body])
+        engine.reset(seed=0, position_m=starts, heading_rad=np.full(n, headings[0]))
+        while engine.time < config.duration_s - 1e-9 and np.isnan(done_s).any():
+            sensed = engine.read(("position", "heading", "panorama"))
+            turn, stride = np.zeros((n, 1)), np.zeros((n, 1))
+            sides = -sides
+            for i in np.flatnonzero(np.isnan(done_s)):
+                offsets, values, active = memory.scan(sensed["panorama"][i:i + 1])
+                ahead = values[np.flatnonzero(offsets == 0.0)[0]]
+                turn[i, 0] = familiarity_turn(config.strategy, memory, offsets, values, active, sides[i],
+                                              config.scan_full_turn_deg, config.klinokinesis_gain,
+                                              config.klinokinesis_max_turn)
+                stride[i, 0] = STRIDE_RAD
+                for key, value in (("time_s", engine.time), ("heading_rad", sensed["heading"][i, 0]),
+                                   ("novelty", ahead), ("turn", turn[i, 0]), ("kc_active", active)):
+                    logs[i][key].append(float(value))
+                logs[i]["position_m"].append(sensed["position"][i].copy())
+            engine.write({"turn": turn, "stride": stride})
+            for _ in range(controls):
+                engine.step(1)
+                position = engine.read(("position",))["position"]
+                near = np.isnan(done_s) & (np.hypot(*(position - points[-1]).T) < config.reach_m)
+                done_s[near], final[near] = engine.time, position[near]
+                if not np.isnan(done_s).any() or engine.time >= config.duration_s - 1e-9:
+                    break
+        running = np.isnan(done_s)
+        final[running] = engine.read(("position",))["position"][running]
+        end_s = np.where(running, engine.time, done_s)
+    rows, out = [], []
+    for i in range(n):
+        log = {k: np.array(v, float) for k, v in logs[i].items() if k != "position_m"}
+        log["position_m"] = np.array([*logs[i]["position_m"], final[i]]).reshape(-1, 2)
+        log["train_position_m"] = train_path
+        rows.append(route_metrics(log["position_m"], points, config, memory.views, float(end_s[i])))
+        out.append(log)
+    if landscape and n:
+        out[0].update(familiarity_landscape(memory, world, points, headings))
+    return rows, out

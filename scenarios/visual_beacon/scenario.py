@@ -1,0 +1,222 @@
+"""Visual beacon (the I2Bot paper's §2.4.1, Fig. 4): the ant walks to a dark landmark it sees.
+
+A black cylinder (r 1 m, h 6 m) stands 25 m from the start, at (0, 25) m, among trees that are too
+light to pass the dark threshold. Once per gait cycle (0.64 s) the brain reads its eyes, finds the
+landmark's dark pixels and turns their offset from the image centre into a shift of the heading
+code (eqs. 3.8–3.9, :mod:`neuronav.brains.vision`); the copy-and-shift circuit
+(:func:`neuronav.brains.steering.copy_and_shift`) copies the current TB1 heading bump, rolls it by that shift
+and steers toward it through CPU1:
+
+    θ   = k_vb · (ΣCPU1_left − ΣCPU1_right)      (as eq. 3.6, with the visual beacon's gain)
+    S_l = 5° + 20° · (1 − min(|θ|, 1))            (eq. 3.7)
+
+``eye`` picks the left eye, the right one, both, or ``cycle`` (trial seed mod 3: left, right,
+both — one run shows all three). Start headings as the paper's (I2Bot §3.3.4; docs/parameters.md §7): the landmark
+0–90° to the left for the left eye, 0–90° to the right for the right eye, within ±45° for both.
+A monocular ant keeps the landmark where its one eye looks (30° to that side), so its path bows
+to the other side; the binocular ant keeps it ahead.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from neuronav.brains.steering import copy_and_shift
+from neuronav.brains.vision import beacon_shift
+from neuronav.config import field
+from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
+from neuronav.errors import ConfigError
+from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios.path_integration.embodied import steering_command
+from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
+from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
+from neuronav.scenarios.worlds.scenes import forest, landmark, vision_appearance
+from neuronav.spec.world import Ground, World
+
+EYE_MODES = ("left", "right", "both")
+EYES = {"left": ("eye_L",), "right": ("eye_R",), "both": ("eye_L", "eye_R")}
+# Start headings (clockwise from +y; the landmark is at bearing 0): the paper's ranges.
+START_HEADINGS_RAD = {"left": (0.0, np.pi / 2), "right": (-np.pi / 2, 0.0), "both": (-np.pi / 4, np.pi / 4)}
+
+
+@dataclass
+class VisualBeaconConfig:
+    eye: str = field("cycle", "which eyes the brain reads: left, right, both, or cycle (trial seed mod 3)",
+                     choices=("cycle", *EYE_MODES))
+    landmark_distance_m: float = field(25.0, "the landmark's distance from the start (m)", min=5.0, max=100.0)
+    trees: int = field(40, "trees around the scene (seeded by the trial)", min=0, max=500)
+    dark_threshold: float = field(0.08, "grey level (0–1) at or below which a pixel is the landmark "
+                                  "(0.08 ≈ 20 of 255; the paper: 10–25 of 255)", min=0.0, max=1.0)
+    k_vb: float = field(0.1, "turn = k_vb (sum CPU1 left - sum CPU1 right)", min_exclusive=0.0, max=100.0)
+    success_radius_m: float = field(3.0, "success: the body comes this close to the landmark's axis (m)",
+                                    min_exclusive=0.0, max=50.0)
+    timeout_s: float = field(120.0, "a trial gives up after this long (s): at least one gait cycle, one look",
+                             min=CYCLE_S, max=3600.0)
+    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
+                              min=1e-4, max=0.008)
+
+    def cross_check(self) -> None:
+        if self.success_radius_m >= self.landmark_distance_m:
+            raise ConfigError(f"success_radius_m ({self.success_radius_m:g}) must be < landmark_distance_m "
+                              f"({self.landmark_distance_m:g}): the ant would succeed where it starts")
+
+
+def eye_mode(config: VisualBeaconConfig, seed: int) -> str:
+    """The eyes trial ``seed`` uses."""
+    return EYE_MODES[seed % 3] if config.eye == "cycle" else config.eye
+
+
+def beacon_world(config: VisualBeaconConfig, seed: int) -> World:
+    """The landmark at (0, landmark_distance_m) and a seeded forest clear of the ant's corridor."""
+    distance = config.landmark_distance_m
+    # No tree between the start and the landmark, nor where a monocular path bows (about a third of
+    # the distance to either side), nor right behind the landmark (it must stand out).
+    clear = [(0.0, y, 0.45 * distance) for y in np.linspace(0.0, distance, 6)]
+    trees = forest(config.trees, seed=seed, inner_radius_m=0.0, outer_radius_m=2.2 * distance,
+                   centre_m=(0.0, distance / 2), clear=clear) if config.trees else ()
+    objects = (landmark((0.0, distance)), *trees)
+    return World(ground=Ground(size_m=4.0 * distance), objects=objects, appearance=vision_appearance())
+
+
+class BeaconBrain:
+    """Eyes → shift (eqs. 3.8–3.9) → copy-and-shift → CPU1 → (θ, S_l), once per gait cycle."""
+
+    def __init__(self, config: VisualBeaconConfig, mode: str, seed: int) -> None:
+        self.config, self.mode = config, mode
+        self.circuit = copy_and_shift().compile(batch=1, seeds=[seed])
+        self.log: dict[str, list] = {k: [] for k in ("time_s", "position_m", "heading_rad", "shift", "turn",
+                                                     "stride_rad")}
+        self.first_view: dict[str, np.ndarray] = {}
+
+    def __call__(self, loop: AgentLoop) -> tuple[float, float]:
+        eyes = EYES[self.mode]
+        sensed = loop.backend.read(("heading", "position", *eyes))
+        images = {name: sensed[name] for name in eyes}
+        if not self.first_view:  # both eyes' first view, for the figure (the brain uses only its own)
+            start = loop.backend.read(("eye_L", "eye_R"))
+            self.first_view = {name: image[0].copy() for name, image in start.items()}
+        shift = beacon_shift(images.get("eye_L"), images.get("eye_R"), threshold=self.config.dark_threshold)
+        heading = sensed["heading"]
+        self.circuit.step({"heading": heading, "shift": shift})
+        command = steering_command(self.circuit.rates("CPU1")[0], self.config.k_vb)
+        for key, value in (("time_s", loop.time_s), ("position_m", sensed["position"][0]),
+                           ("heading_rad", heading[0, 0]), ("shift", shift[0, 0]), ("turn", command[0]),
+                           ("stride_rad", command[1])):
+            self.log[key].append(np.array(value, float))
+        return command
+
+
+def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video_path=None) -> tuple[dict, dict]:
+    """One trial: the metrics row and the per-cycle log (with the first views)."""
+    mode = eye_mode(config, seed)
+    rng = np.random.default_rng([seed, 4])
+    heading0 = float(rng.uniform(*START_HEADINGS_RAD[mode]))
+    world = beacon_world(config, seed)
+    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s)
+    brain = BeaconBrain(config, mode, seed)
+    clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
+    goal = np.array([0.0, config.landmark_distance_m])
+
+    def arrived(lp: AgentLoop) -> bool:
+        position = lp.backend.read(("position",))["position"][0]
+        return bool(np.hypot(*(position - goal)) <= config.success_radius_m)
+
+    loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
+                                   duration_s=config.timeout_s, until=arrived, video_path=video_path)
+    log = {k: np.array(v, float) for k, v in brain.log.items()}
+    log["position_m"] = np.vstack([log["position_m"], final[None]])
+    log["end_time_s"] = np.array(loop.time_s)
+    log["first_view"] = brain.first_view
+    return beacon_metrics(log, config, mode, heading0, loop.time_s, wall_s), log
+
+
+def beacon_metrics(log: dict, config: VisualBeaconConfig, mode: str, heading0: float, trial_time_s: float,
+                   wall_s: float) -> dict:
+    """Success, time to the landmark and the path's shape (signed lateral offset, length over distance)."""
+    path = log["position_m"]
+    goal = np.array([0.0, config.landmark_distance_m])
+    distance = np.hypot(path[:, 0] - goal[0], path[:, 1] - goal[1])
+    reached = bool(distance.min() <= config.success_radius_m)
+    # Signed offset from the start-landmark line, + to the left (−x) looking at the landmark.
+    lateral = -path[:, 0]
+    extreme = int(np.argmax(np.abs(lateral)))
+    length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
+    travelled = float(np.hypot(*(path[-1] - path[0])))
+    return {
+        "success": reached, "status": "ok", "error": "",
+        "eye_mode": float(EYE_MODES.index(mode)),
+        "start_heading_deg": float(np.degrees(heading0)),
+        "time_to_landmark_s": float(trial_time_s) if reached else float("nan"),
+        "closest_distance_m": float(distance.min()),
+        "lateral_offset_m": float(lateral[extreme]),
+        "mean_lateral_offset_m": float(lateral.mean()),
+        "path_ratio": length / travelled if travelled > 0 else float("nan"),
+        "trial_time_s": float(trial_time_s),
+        "real_time_factor": float(trial_time_s / wall_s) if wall_s > 0 else float("nan"),
+    }
+
+
+class VisualBeacon(Scenario):
+    """Monocular and binocular visual beacons on every backend."""
+
+    name = "visual-beacon"
+    description = "walk to a dark landmark seen by the left, right or both eyes: copy-and-shift steering (paper §2.4.1)"
+    config_type = VisualBeaconConfig
+    backends = EVERY_BACKEND
+    default_backend = "kinematic"
+    records_video = True
+    timing_metrics = ("real_time_factor",)
+    # NaN by definition: the time to arrive for an ant that never arrives (per trial, and the median of
+    # a mode whose every trial timed out), the path ratio of an ant that did not move.
+    optional_metrics = ("time_to_landmark_s", "path_ratio", *(f"median_time_{m}_s" for m in EYE_MODES))
+
+    def smoke_config(self) -> dict:
+        return {"timeout_s": 2.0, "trees": 5}
+
+    def check(self, config: VisualBeaconConfig, backend: str) -> None:
+        if backend != "kinematic":
+            integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
+
+    def aggregate(self, trials: list[dict], config: VisualBeaconConfig) -> dict:
+        """Per eye mode (among the finished trials): the median time to the landmark of those that
+        reached it, the fraction that did, and the mean signed lateral offset (+ = left)."""
+        result = {}
+        for k, mode in enumerate(EYE_MODES):
+            rows = [t for t in trials if t.get("status", "ok") == "ok" and t.get("eye_mode") == k]
+            if not rows:
+                continue
+            times = [t["time_to_landmark_s"] for t in rows if np.isfinite(t["time_to_landmark_s"])]
+            result[f"median_time_{mode}_s"] = float(np.median(times)) if times else float("nan")
+            result[f"success_{mode}"] = float(np.mean([bool(t["success"]) for t in rows]))
+            result[f"lateral_offset_{mode}_m"] = float(np.mean([t["lateral_offset_m"] for t in rows]))
+        return result
+
+    def run(self, config: VisualBeaconConfig, *, backend: str, trials: int, seed: int,
+            video_path: Path | None = None) -> ScenarioResult:
+        rows, logs = trials_one_by_one(lambda s, video: beacon_trial(config, backend, s, video), trials, seed,
+                                       video_path)
+        return ScenarioResult(trials=rows, timeseries=pack_logs(logs), aggregates=self.aggregate(rows, config),
+                              simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
+
+    def figures(self, result: ScenarioResult, config: VisualBeaconConfig, out_dir: Path) -> list[Path]:
+        from neuronav.scenarios.visual_beacon.figures import write_beacon_figures
+
+        return write_beacon_figures(result, config, Path(out_dir))
+
+
+def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
+    """Per-cycle logs of unequal length as NaN-padded arrays (trials, cycles, ...), and the first views."""
+    packed = pack_cycle_logs(logs, ("time_s", "heading_rad", "shift", "turn", "stride_rad"))
+    for name in ("eye_L", "eye_R"):
+        shape = next((log["first_view"][name].shape for log in logs if name in log["first_view"]), None)
+        if shape is None:
+            continue
+        packed[f"first_view_{name}"] = np.full((len(logs), *shape), np.nan)
+        for i, log in enumerate(logs):
+            if name in log["first_view"]:
+                packed[f"first_view_{name}"][i] = log["first_view"][name]
+    return packed

@@ -1,0 +1,60 @@
+"""Figures of the visual compass, after the paper's Fig. 5c: heading, scene angle and Zernike phase over time.
+
+Each ``*_figure`` function draws one figure and returns it; :func:`write_compass_figures` saves them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from neuronav.runs.plotting import break_at_wraps, new_figure, save, trial_colour
+
+
+def write_compass_figures(result, config, out_dir: Path) -> list[Path]:
+    """compass.png (trial 0, like Fig. 5c) and heading_error.png (every trial)."""
+    out_dir = Path(out_dir)
+    return [save(compass_figure(result, config), out_dir / "compass.png"),
+            save(error_figure(result, config), out_dir / "heading_error.png")]
+
+
+def compass_figure(result, config, trial: int = 0):
+    """Trial 0: the ant's heading and its stored direction (top), the scene's angle and the Z_{7,1} phase (bottom)."""
+    ts = result.timeseries
+    keep = np.isfinite(ts["time_s"][trial])
+    time_s = ts["time_s"][trial, keep]
+    fig, (top, bottom) = new_figure((8, 5.5), nrows=2, sharex=True)
+    for ax, series in ((top, (("heading_rad", "ant heading", "tab:blue", "-"),
+                              ("target_rad", "stored direction (moves with the scene)", "k", "--"))),
+                       (bottom, (("scene_yaw_rad", "scene angle", "tab:orange", "-"),
+                                 ("phase_rad", "Zernike Z7,1 phase", "tab:green", "-")))):
+        for key, label, colour, style in series:
+            t, angle = break_at_wraps(time_s, ts[key][trial, keep])
+            ax.plot(t, np.degrees(angle), color=colour, ls=style, lw=1.0, label=label, gid=key)
+        ax.set_ylim(-180, 180)
+        ax.set_ylabel("angle (deg)")
+        ax.legend(loc="upper right", fontsize=8)
+    bottom.set_xlabel("time (s)")
+    row = result.trials[trial]
+    top.set_title(f"visual compass, {config.rotation} rotation: mean error {row['mean_error_deg']:.1f}°"
+                  + (f", jumps recovered {row['recovered_fraction'] * 100:.0f}%" if config.rotation == "jump" else ""))
+    return fig
+
+
+def error_figure(result, config):
+    """Every trial's heading error (ant heading minus the stored direction) against time."""
+    ts = result.timeseries
+    fig, ax = new_figure((8, 3.5))
+    for i in range(len(result.trials)):
+        keep = np.isfinite(ts["time_s"][i])
+        ax.plot(ts["time_s"][i, keep], np.degrees(ts["error_rad"][i, keep]), color=trial_colour(i), lw=0.8,
+                gid=f"trial {i}", label=f"trial {i}" if i < 10 else None)
+    ax.axhspan(-config.recovered_deg, config.recovered_deg, color="0.9", zorder=0, gid="recovered band")
+    ax.set_ylim(-180, 180)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("heading error (deg)")
+    ax.set_title(f"heading error, {len(result.trials)} trials (grey: ±{config.recovered_deg:g}°)")
+    if len(result.trials) <= 10:
+        ax.legend(loc="upper right", fontsize=7)
+    return fig
