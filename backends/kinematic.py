@@ -1,6 +1,6 @@
 """The kinematic backend: batched point agents, no physics engine.
 
-Two motion models (chosen by :class:`neuronav.world.PointAgents`):
+Two motion models (chosen by :class:`neuronav.spec.world.PointAgents`):
 
 - ``stone`` — Stone et al. 2017's agent, in distance units per step (timestep 1):
   ``heading += rotation``; ``velocity = (velocity + acceleration * (sin h, cos h)) * (1 - drag)``;
@@ -8,21 +8,21 @@ Two motion models (chosen by :class:`neuronav.world.PointAgents`):
 - ``unicycle`` — driven by the locomotion command (``turn`` in [-1, 1], ``stride`` = hip swing S_l in
   rad) through a calibration table of (turn, stride) -> (forward speed m/s, turn rate rad/s),
   interpolated bilinearly: the one measured on MuJoCo (``backends/data/unicycle_mujoco.json``,
-  made by ``python -m neuronav.scenarios.calibrate_unicycle``) when present, else a geometric one.
+  made by ``python -m neuronav.scenarios.tools.calibrate_unicycle``) when present, else a geometric one.
   Timestep 8 ms (the paper's control step).
 
 Heading is clockwise from +y, so an agent at heading h moves along (sin h, cos h).
 
-Eyes: the cameras of :class:`~neuronav.world.PointAgents` are rendered by ray casting
-(:mod:`neuronav.raycast`) for every agent at once, only when a camera is read or rendered. A camera
+Eyes: the cameras of :class:`~neuronav.spec.world.PointAgents` are rendered by ray casting
+(:mod:`neuronav.senses.raycast`) for every agent at once, only when a camera is read or rendered. A camera
 sits in the agent's frame: forward f = (sin h, cos h, 0), left l = (-cos h, sin h, 0), up z; its
 position is (x, y, 0) + pos.x f + pos.y l + pos.z up and its frame [f l up] @ R(camera.quat).
 ``set_scene_yaw`` turns the world's objects about the vertical axis through the origin (the ground
 stays), as on the physics backends.
 
-Antennae (:class:`~neuronav.world.PointAntenna`, A per agent): their tips are the odour and wind
+Antennae (:class:`~neuronav.spec.world.PointAntenna`, A per agent): their tips are the odour and wind
 sites, read as ``odour_sites`` / ``wind_sites`` (N, A, 3) m, ``odour`` (N, A, K) and ``wind``
-(N, A, 2) m/s from the world's chemistry (:mod:`neuronav.chemistry`) in one array operation over
+(N, A, 2) m/s from the world's chemistry (:mod:`neuronav.senses.chemistry`) in one array operation over
 agents and antennae; ``antenna_yaw`` (N, A) rad swings each tip about the vertical through its base
 (positive: left), as an articulated antenna's yaw joint does.
 """
@@ -36,13 +36,13 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.backend import BackendBase, Capabilities, check_seed
-from neuronav.body import Camera, quat_to_matrix
-from neuronav.chemistry import Chemistry
+from neuronav.engine.backend import BackendBase, Capabilities, check_seed
 from neuronav.errors import ConfigError, PortError, SimulationError
-from neuronav.ports import MotorSpec, SensorSpec
-from neuronav.vision import average_samples, check_camera, grey, pixel_directions, sampling_camera
-from neuronav.world import PointAgents, World
+from neuronav.senses.chemistry import Chemistry
+from neuronav.senses.vision import average_samples, check_camera, grey, pixel_directions, sampling_camera
+from neuronav.spec.body import Camera, quat_to_matrix
+from neuronav.spec.ports import MotorSpec, SensorSpec
+from neuronav.spec.world import PointAgents, World
 
 
 @dataclass(frozen=True)
@@ -95,7 +95,7 @@ DATA_DIR = Path(__file__).resolve().parent / "data"
 
 
 def load_calibration(path: Path) -> UnicycleCalibration:
-    """A calibration table written by ``python -m neuronav.scenarios.calibrate_unicycle``."""
+    """A calibration table written by ``python -m neuronav.scenarios.tools.calibrate_unicycle``."""
     try:
         table = json.loads(Path(path).read_text())
         calibration = UnicycleCalibration(
@@ -303,7 +303,7 @@ class KinematicBackend(BackendBase):
         spec = self._camera(camera)
         caster = self._casters.get(camera)
         if caster is None:
-            from neuronav.raycast import RayCaster  # lazily: only worlds with eyes need it
+            from neuronav.senses.raycast import RayCaster  # lazily: only worlds with eyes need it
 
             caster = self._casters[camera] = RayCaster(self.world, pixel_directions(sampling_camera(spec)))
         eyes, rotations = self.camera_frames(camera)
@@ -312,7 +312,7 @@ class KinematicBackend(BackendBase):
         samples = caster.render(eyes, rotations, self._scene_yaw_rad)
         if spec.supersample == 1:
             return samples
-        # Each agent's k x k samples per pixel averaged, as every backend does (neuronav.vision).
+        # Each agent's k x k samples per pixel averaged, as every backend does (neuronav.senses.vision).
         return np.stack([average_samples(image, spec.supersample) for image in samples])
 
     def antenna_tips(self) -> np.ndarray:
@@ -376,7 +376,7 @@ class KinematicBackend(BackendBase):
             return cameras
         names = [c.name if isinstance(c, Camera) else None for c in cameras]
         if None in names:
-            raise ConfigError("PointAgents cameras must be neuronav.body.Camera instances")
+            raise ConfigError("PointAgents cameras must be neuronav.spec.body.Camera instances")
         if len(set(names)) != len(names):
             raise ConfigError(f"PointAgents cameras: a name is used twice in {names}")
         clash = set(names) & {s.name for s in KinematicBackend.capabilities.sensors}
@@ -411,7 +411,7 @@ class KinematicBackend(BackendBase):
         if spec is None:
             if not self._cameras:
                 raise SimulationError("the kinematic backend's agents have no cameras: give PointAgents cameras "
-                                      "(neuronav.body.Camera) to render")
+                                      "(neuronav.spec.body.Camera) to render")
             raise PortError(f"kinematic backend has no camera {camera!r}; available: {', '.join(self._cameras)}")
         return spec
 

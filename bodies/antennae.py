@@ -21,10 +21,10 @@ import math
 import numpy as np
 
 from neuronav.bodies.gaits import segment_pose
-from neuronav.body import BodySpec
+from neuronav.engine.loop import Hook
 from neuronav.errors import ConfigError
-from neuronav.loop import Hook
-from neuronav.world import PointAntenna
+from neuronav.spec.body import BodySpec
+from neuronav.spec.world import PointAntenna
 
 ANTENNA_MODES = ("fixed", "moving")
 SIDES = ("L", "R")

@@ -1,6 +1,6 @@
 """Gaits: the locomotion command (turn θ, stride S_l) to joint targets, one control step at a time.
 
-Every gait here implements :class:`neuronav.body.Gait` for the desert-ant body
+Every gait here implements :class:`neuronav.spec.body.Gait` for the desert-ant body
 (:func:`neuronav.bodies.desert_ant.desert_ant`, or any body with the same leg naming): ``joint_names`` is all
 of the body's hinge joints in its order, ``reset()`` restarts the cycle, and ``step(turn, stride_rad)``
 returns the targets (rad, shape (J,)) for the next control step (8 ms in I2Bot; one gait sample per
@@ -31,8 +31,8 @@ import math
 import numpy as np
 
 from neuronav.bodies.desert_ant.body import LEGS, leg_geometry
-from neuronav.body import BodySpec, quat_to_matrix
 from neuronav.errors import ConfigError
+from neuronav.spec.body import BodySpec, quat_to_matrix
 
 CONTROL_STEP_S = 0.008
 PATTERNS = ("tripod", "ripple", "wave")

@@ -11,11 +11,11 @@ After Ardin et al. 2016 and Sun et al. 2020 (``docs/parameters.md`` §9):
   replacement (seeded, :func:`kc_wiring`), weight 1, and fires (rate 1) where the sum exceeds
   ``kc_threshold``. With z-scored inputs the threshold sets the code's sparsity
   (:func:`kc_sparsity` measures it); the default gives a few per cent of the KCs active on the
-  forest views of ``scenarios/mb_familiarity.py`` (measured there and in
+  forest views of ``scenarios/tools/mb_familiarity.py`` (measured there and in
   ``tests/unit/test_mushroom_body.py``).
 - **MBON** (one output neuron, motor port ``novelty``): Σ w_k KC_k with every w_k = 1 at first.
   While the ``learning`` port is on (> 0.5) the KC→MBON connection learns by
-  :class:`~neuronav.plasticity.OneShotDepression`: every active KC's weight drops by
+  :class:`~neuronav.circuits.plasticity.OneShotDepression`: every active KC's weight drops by
   ``learning_rate`` (1 by default: one presentation silences it), floored at 0. The output is the
   number of active KCs whose weights are intact: the view's novelty (0: fully familiar).
 """
@@ -24,10 +24,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from neuronav.circuit import Circuit
+from neuronav.circuits.circuit import Circuit
+from neuronav.circuits.plasticity import OneShotDepression
 from neuronav.errors import ConfigError
-from neuronav.plasticity import OneShotDepression
-from neuronav.ports import MotorSpec, SensorSpec
+from neuronav.spec.ports import MotorSpec, SensorSpec
 
 N_KC = 4000  # Sun et al. 2020
 INPUTS_PER_KC = 10  # Ardin et al. 2016; Sun et al. 2020

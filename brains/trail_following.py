@@ -17,7 +17,7 @@ the antenna that smells more.
 
 Units. The paper's thresholds (T_d = 5, T_o = 900, K_d = 400) are in the units of the Webots
 DistanceSensor that read the floor texture. Our trail concentration is dimensionless, in [0, 1]
-(1 on the trail, :mod:`neuronav.odour`), so the controller first scales it to sensor units,
+(1 on the trail, :mod:`neuronav.senses.odour`), so the controller first scales it to sensor units,
 ``O = sensor_scale · c`` with ``sensor_scale = 1000`` by default: a reading of 1000 on the trail,
 0 off it. With that mapping "odour sensed" (T_o = 900) means an antenna is inside the trail's flat
 top or the inner part of its raised-cosine edge (c >= 0.9), the dead band (T_d = 5) is a

@@ -1,8 +1,8 @@
 """The dm_control backend: the MuJoCo backend's model, stepped through dm_control's ``Physics``.
 
 dm_control is DeepMind's Python layer over MuJoCo. This backend builds exactly the model that
-:mod:`neuronav.backends.mujoco.mjcf` compiles from the :class:`~neuronav.body.BodySpec` and the
-:class:`~neuronav.world.World` (one MJCF, one ``MjSpec``, compiled once), wraps it in a
+:mod:`neuronav.backends.mujoco.mjcf` compiles from the :class:`~neuronav.spec.body.BodySpec` and the
+:class:`~neuronav.spec.world.World` (one MJCF, one ``MjSpec``, compiled once), wraps it in a
 :class:`dm_control.mujoco.Physics` and advances it with :meth:`Physics.step`. dm_control's
 step (its default "legacy" step) is ``mj_step2`` then ``mj_step1``, the very order the MuJoCo
 backend uses, so both backends walk the same walk to the last bit (a cross-backend test checks it).
@@ -31,8 +31,8 @@ from dm_control.rl.control import PhysicsError  # noqa: E402
 
 from neuronav.backends.mujoco.backend import _FATAL_INDEX, MujocoBackend  # noqa: E402
 from neuronav.backends.mujoco.mjcf import compile_model  # noqa: E402
-from neuronav.body import BodySpec  # noqa: E402
-from neuronav.world import World  # noqa: E402
+from neuronav.spec.body import BodySpec  # noqa: E402
+from neuronav.spec.world import World  # noqa: E402
 
 
 class DmControlBackend(MujocoBackend):

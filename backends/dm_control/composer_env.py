@@ -1,7 +1,7 @@
 """The ant, a world and a navigation task as dm_control ``composer`` pieces: a ``dm_env`` environment.
 
 - :class:`AntEntity` — the ant as a ``composer.Entity``; :class:`WorldArena` — a
-  :class:`~neuronav.world.World` as a ``composer.Arena``. Both come from one MJCF: the text that
+  :class:`~neuronav.spec.world.World` as a ``composer.Arena``. Both come from one MJCF: the text that
   :func:`neuronav.backends.mujoco.mjcf.to_xml` writes for the world and the body spec (the MuJoCo backend's
   own translation), split into the body's subtree with its actuators (the entity) and the rest (the
   arena: options, sky, ground, objects, lights). PyMJCF keeps ``/`` for its scopes, so every ``/`` in
@@ -15,7 +15,7 @@
   and the observations the task computes (``home_vector``); they are read through the sensors of
   :class:`~neuronav.backends.dm_control.DmControlBackend`, bound to the composer physics, so an observation is
   exactly what a backend reports (odour and wind from the world's fields, eyes rendered by the rules
-  of :mod:`neuronav.vision`). Reward, termination and the start pose are the task object's.
+  of :mod:`neuronav.senses.vision`). Reward, termination and the start pose are the task object's.
 - :func:`environment` — a ``composer.Environment`` of a task.
 
 The action is the locomotion command (``turn`` θ in [-1, 1], ``stride`` S_l in rad; outside its
@@ -44,9 +44,9 @@ from dm_env import specs  # noqa: E402
 from neuronav.backends.dm_control.backend import DmControlBackend  # noqa: E402
 from neuronav.backends.mujoco.mjcf import SCENE_BODY, ModelNames, build_spec, to_xml  # noqa: E402
 from neuronav.backends.mujoco.swarm import prefixed_body  # noqa: E402
-from neuronav.body import BodySpec  # noqa: E402
 from neuronav.errors import ConfigError, PortError  # noqa: E402
-from neuronav.world import World  # noqa: E402
+from neuronav.spec.body import BodySpec  # noqa: E402
+from neuronav.spec.world import World  # noqa: E402
 
 ENTITY_NAME = "ant"
 PREFIX = ENTITY_NAME + "/"  # PyMJCF's scope of the attached ant
@@ -160,7 +160,7 @@ class AntEntity(composer.Entity):
 
 
 class WorldArena(composer.Arena):
-    """A :class:`~neuronav.world.World` as a composer arena: options, sky, ground, objects, lights."""
+    """A :class:`~neuronav.spec.world.World` as a composer arena: options, sky, ground, objects, lights."""
 
     def _build(self, mjcf_root: mjcf.RootElement, name: str = "world") -> None:
         self._mjcf_root = mjcf_root

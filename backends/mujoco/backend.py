@@ -1,4 +1,5 @@
-"""The MuJoCo backend: one articulated body (a :class:`~neuronav.body.BodySpec`) in a :class:`~neuronav.world.World`.
+"""The MuJoCo backend: one articulated body (a :class:`~neuronav.spec.body.BodySpec`) in a
+:class:`~neuronav.spec.world.World`.
 
 Physics step
 ------------
@@ -17,7 +18,7 @@ or control (NaN, inf or beyond 1e10) raises :class:`~neuronav.errors.SimulationE
 
 Cameras
 -------
-Body cameras follow :mod:`neuronav.vision` (the shared base composes their images): this module
+Body cameras follow :mod:`neuronav.senses.vision` (the shared base composes their images): this module
 renders the planar views it asks for, flat-shaded, in one GL context of its own. Per camera frame
 the scene is updated once; every view (a planar eye, or a panorama's cube faces) is drawn into its
 own viewport of one offscreen buffer with its own frustum (independent horizontal and vertical
@@ -25,10 +26,10 @@ fields of view, clipped at ``NEAR_M``..``FAR_M``), and the buffer is read once, 
 Flat shading: the scene's only light is an ambient headlight of 1 (no diffuse, specular, shadows,
 reflections, fog, haze or skybox), so each surface shows exactly its rgba; 2D textures are sampled
 nearest: the checker (one texel per square) and the odour trails' floor image
-(:mod:`neuronav.trail_floor`, on a plane just above the ground: each pixel shows one of its texels,
+(:mod:`neuronav.senses.trail_floor`, on a plane just above the ground: each pixel shows one of its texels,
 as the kinematic ray caster paints it). Pixels left at the far plane are the sky mask. The body
 (geom group ``BODY_GROUP``) is drawn only for a camera that ``sees_body``.
-``"follow"`` is the shared follow view (:func:`neuronav.articulated.follow_view`): the free camera
+``"follow"`` is the shared follow view (:func:`neuronav.engine.articulated.follow_view`): the free camera
 looks at its target from its distance, with the model's free-camera field of view set to it; it is
 lit (headlight and sun) with the World's sky and floor.
 
@@ -36,7 +37,7 @@ Scene yaw turns the mocap body that carries the world's objects (:data:`mjcf.SCE
 the world z axis: their collisions follow them, and the turn holds across resets.
 
 Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
-framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to MuJoCo.
+framing) is in :class:`neuronav.engine.articulated.ArticulatedBackend`; this module only talks to MuJoCo.
 """
 
 from __future__ import annotations
@@ -49,12 +50,12 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from neuronav.articulated import ArticulatedBackend, FollowView  # noqa: E402
 from neuronav.backends.mujoco.mjcf import BODY_GROUP, HORIZON_GROUP, SCENE_BODY, ModelNames, compile_model  # noqa: E402
-from neuronav.body import BodySpec, Camera, quat_to_matrix  # noqa: E402
+from neuronav.engine.articulated import ArticulatedBackend, FollowView  # noqa: E402
 from neuronav.errors import SimulationError  # noqa: E402
-from neuronav.vision import FAR_M, NEAR_M, View  # noqa: E402
-from neuronav.world import World  # noqa: E402
+from neuronav.senses.vision import FAR_M, NEAR_M, View  # noqa: E402
+from neuronav.spec.body import BodySpec, Camera, quat_to_matrix  # noqa: E402
+from neuronav.spec.world import World  # noqa: E402
 
 _FATAL_WARNINGS = {
     mujoco.mjtWarning.mjWARN_BADQPOS: "bad joint position (NaN, inf or huge)",

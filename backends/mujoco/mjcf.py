@@ -4,7 +4,7 @@ Nothing here is converted from URDF: every element comes straight from the backe
 
 What the model contains
 -----------------------
-- One MuJoCo body per :class:`~neuronav.body.Segment`, at its ``pos_m``/``quat`` in its parent, with an
+- One MuJoCo body per :class:`~neuronav.spec.body.Segment`, at its ``pos_m``/``quat`` in its parent, with an
   explicit inertial (mass, centre of mass, full inertia tensor from :meth:`Segment.inertial`) so the
   masses are exactly the spec's; ``inertiafromgeom`` is off. The root gets a free joint (or none when
   its joint is ``fixed``); every hinge gets its axis, range (limited), damping and armature.
@@ -18,14 +18,14 @@ What the model contains
   legs may cross, as in PyBullet's default (no self-collision). ``body.notes["self_collision"] = True``
   turns self-collision on (MuJoCo still skips parent-child pairs).
 - A site per spec site. Body cameras are not model cameras: the backend renders them from the mount
-  segment's pose by the rules of :mod:`neuronav.vision` (its own frustum per view).
+  segment's pose by the rules of :mod:`neuronav.senses.vision` (its own frustum per view).
 - The world: a plane (flat, wall), a heightfield (uneven), a wall box, objects (a cone is a convex
-  mesh), a sky box and a floor coloured from :class:`~neuronav.world.Appearance`, a light, and the
+  mesh), a sky box and a floor coloured from :class:`~neuronav.spec.world.Appearance`, a light, and the
   physics options (timestep, integrator, solver). The ground plane is drawn out to
-  :data:`neuronav.vision.GROUND_REACH_M` (a plane collides everywhere; its size only bounds the
+  :data:`neuronav.senses.vision.GROUND_REACH_M` (a plane collides everywhere; its size only bounds the
   drawing); around a heightfield a visual-only plane (group ``HORIZON_GROUP``) carries the ground on.
   The objects are geoms of one mocap body at the origin (``SCENE_BODY``), turned for the scene yaw.
-- Odour trails (:mod:`neuronav.trail_floor`): on a flat ground, a visual-only plane (``TRAIL_GEOM``,
+- Odour trails (:mod:`neuronav.senses.trail_floor`): on a flat ground, a visual-only plane (``TRAIL_GEOM``,
   group ``HORIZON_GROUP``: drawn, never touched nor hit by rays) over the floor image's rectangle,
   ``TRAIL_LIFT_M`` above z = 0, its texture the image (one copy over the plane, row 0 at its +y
   edge, column 0 at its -x edge; checked by a test). Without trails nothing is added.
@@ -42,12 +42,12 @@ from dataclasses import dataclass, field  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from neuronav.articulated import FOLLOW_SIZE_PX  # noqa: E402
-from neuronav.body import BodySpec, Segment  # noqa: E402
+from neuronav.engine.articulated import FOLLOW_SIZE_PX  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
-from neuronav.trail_floor import TrailFloor, png_bytes, trail_floor  # noqa: E402
-from neuronav.vision import CUBE_FACE_ROTATIONS, GROUND_REACH_M, check_camera, cube_face_px  # noqa: E402
-from neuronav.world import World  # noqa: E402
+from neuronav.senses.trail_floor import TrailFloor, png_bytes, trail_floor  # noqa: E402
+from neuronav.senses.vision import CUBE_FACE_ROTATIONS, GROUND_REACH_M, check_camera, cube_face_px  # noqa: E402
+from neuronav.spec.body import BodySpec, Segment  # noqa: E402
+from neuronav.spec.world import World  # noqa: E402
 
 GRAVITY_M_S2 = (0.0, 0.0, -9.81)
 WALL_THICKNESS_M = 0.1
@@ -67,7 +67,7 @@ HORIZON_DROP_M = 1e-3  # that plane sits just under z = 0, so the heightfield dr
 # flat shading needs no finer grid, and a fine grid over GROUND_REACH_M costs milliseconds per render.
 PLANE_QUADS = 4
 GROUND_TEXEL_PX = 256  # the checker texture (2x2 squares): sharp in the lit, mipmapped follow view too
-TRAIL_GEOM = "world/trails"  # the plane that shows the odour trails (neuronav.trail_floor)
+TRAIL_GEOM = "world/trails"  # the plane that shows the odour trails (neuronav.senses.trail_floor)
 # The trail plane's height above the ground: over the ground plane in the depth buffer (a body camera
 # 5 cm up resolves 1e-5 m at 20 m), under anything standing on the floor by no more than this.
 TRAIL_LIFT_M = 1e-3

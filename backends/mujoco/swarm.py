@@ -1,6 +1,6 @@
 """Several ants in one MuJoCo world: one model, each ant's names prefixed, ants colliding with each other.
 
-:class:`MujocoSwarm` loads a :class:`~neuronav.world.World` with N :class:`~neuronav.body.BodySpec`\\ s
+:class:`MujocoSwarm` loads a :class:`~neuronav.spec.world.World` with N :class:`~neuronav.spec.body.BodySpec`\\ s
 (N copies of one, or different ones) into one MuJoCo model and reads and writes them with a leading
 agent axis, as the kinematic backend batches its point agents: ``read`` gives (N, ...) arrays,
 ``write`` takes (N, ...) commands, ``reset`` takes one start pose per ant, so a brain compiled with
@@ -22,7 +22,7 @@ bit i + 1, its ``conaffinity`` every ant bit but its own. 32-bit masks leave 31 
 Sensors (per ant, with the agent axis first): ``heading`` (N, 1) rad, ``position`` (N, 2) m,
 ``velocity`` (N, 2) m/s, ``body_pos`` (N, 3), ``body_quat`` (N, 4), ``body_linvel`` (N, 3),
 ``body_angvel`` (N, 3), ``joint_pos`` / ``joint_vel`` (N, J): the meanings of
-:data:`neuronav.backend.ARTICULATED_SENSORS`. Commands: ``joint_targets`` (N, J) rad. All ants
+:data:`neuronav.engine.backend.ARTICULATED_SENSORS`. Commands: ``joint_targets`` (N, J) rad. All ants
 must have the same J. Not offered here (the single-ant :class:`~neuronav.backends.mujoco.MujocoBackend` has
 them): contact forces, adhesion, odour and wind, cameras and videos; a world with ``adhesion_n`` > 0
 is refused. A reset stands each ant on the terrain under its start (``spawn_height_m`` above
@@ -41,8 +41,6 @@ from dataclasses import replace  # noqa: E402
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities  # noqa: E402
-from neuronav.backend import BackendBase, Capabilities, check_seed, start_pose  # noqa: E402
 from neuronav.backends.mujoco.backend import _FATAL_INDEX, _FATAL_WARNINGS  # noqa: E402
 from neuronav.backends.mujoco.mjcf import (  # noqa: E402
     WORLD_CONTYPE,
@@ -53,10 +51,12 @@ from neuronav.backends.mujoco.mjcf import (  # noqa: E402
     _visual,
     _world,
 )
-from neuronav.body import BodySpec  # noqa: E402
+from neuronav.engine.articulated import check_swarm_load, check_timestep, swarm_capabilities  # noqa: E402
+from neuronav.engine.backend import BackendBase, Capabilities, check_seed, start_pose  # noqa: E402
 from neuronav.errors import ConfigError, PortError, SimulationError  # noqa: E402
-from neuronav.trail_floor import trail_floor  # noqa: E402
-from neuronav.world import World  # noqa: E402
+from neuronav.senses.trail_floor import trail_floor  # noqa: E402
+from neuronav.spec.body import BodySpec  # noqa: E402
+from neuronav.spec.world import World  # noqa: E402
 
 MAX_ANTS = 31  # one contype bit per ant besides the world's bit 0
 ANT_PREFIX = "ant{index}/"

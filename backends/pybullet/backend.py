@@ -1,4 +1,4 @@
-"""The PyBullet backend: one articulated body (a :class:`~neuronav.body.BodySpec`) in a :class:`World`.
+"""The PyBullet backend: one articulated body (a :class:`~neuronav.spec.body.BodySpec`) in a :class:`World`.
 
 Design
 ------
@@ -44,7 +44,7 @@ Design
   at the geom's centre, every PyBullet step.
 - ``reset`` puts the root ``spawn_height_m`` above the terrain under it; if a geom would then start
   inside the terrain (rough ground), the body is lifted just clear of it (the shared rule of
-  :class:`~neuronav.articulated.ArticulatedBackend`; said once in :attr:`notes`), because a PyBullet
+  :class:`~neuronav.engine.articulated.ArticulatedBackend`; said once in :attr:`notes`), because a PyBullet
   heightfield is a surface that pushes a sunken geom down. Here the overlap is measured from the
   geoms' extents against :meth:`Ground.height_at`.
 - Speed: the control law runs in Python at every PyBullet step, so that step does one batched joint
@@ -53,12 +53,12 @@ Design
   queried when ``contact_force`` is read or adhesion is on.
 - The floor in the physics client looks as ``World.appearance`` says (plain ``ground_rgb``, or its
   checker as one texture over ``Ground.size_m``, squares aligned with the world axes) so that motion
-  shows in videos, as on MuJoCo; a world's odour trails are drawn over it (:mod:`neuronav.trail_floor`;
+  shows in videos, as on MuJoCo; a world's odour trails are drawn over it (:mod:`neuronav.senses.trail_floor`;
   :mod:`neuronav.backends.pybullet.scene`), and body cameras paint them on their floor pixels.
 - What PyBullet's C code prints while loading the URDF (``b3Warning``) is collected in
   :attr:`warnings`, as are the notes above and the reason of a divergence.
-- Body cameras follow :mod:`neuronav.vision` (planar views, spherical ones from cube faces, the sky,
-  the grey sensor: :class:`~neuronav.articulated.ArticulatedBackend`); this backend renders each
+- Body cameras follow :mod:`neuronav.senses.vision` (planar views, spherical ones from cube faces, the sky,
+  the grey sensor: :class:`~neuronav.engine.articulated.ArticulatedBackend`); this backend renders each
   view flat-shaded with TinyRenderer (:mod:`neuronav.backends.pybullet.camera`) in a second DIRECT client
   that holds only the world's looks (:func:`neuronav.backends.pybullet.scene.build_vision_world`: the ground
   reaching ``vision.GROUND_REACH_M``), built on the first body-camera render: the body is not in
@@ -67,11 +67,11 @@ Design
   parked 10 km under the ground otherwise. ``set_scene_yaw`` moves the objects in both clients
   (:func:`neuronav.backends.pybullet.scene.place_objects`; in the physics client they keep colliding), and a
   reset, which rebuilds the physics client, puts them back at the current scene yaw.
-- ``"follow"`` renders :func:`neuronav.articulated.follow_view` in the physics client, lit as
+- ``"follow"`` renders :func:`neuronav.engine.articulated.follow_view` in the physics client, lit as
   TinyRenderer lights it, with the World's sky where nothing was drawn.
 
 Everything engine-free (sensor table, checks, reset lifting, ``apply_force``'s rule, the follow
-framing) is in :class:`neuronav.articulated.ArticulatedBackend`; this module only talks to PyBullet,
+framing) is in :class:`neuronav.engine.articulated.ArticulatedBackend`; this module only talks to PyBullet,
 with :mod:`neuronav.backends.pybullet.scene` (ground, objects), :mod:`neuronav.backends.pybullet.camera` (rendering),
 :mod:`neuronav.backends.pybullet.urdf` (the body) and :mod:`neuronav.backends.pybullet.engine` (the import, C output).
 """
@@ -85,16 +85,16 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from neuronav.articulated import ArticulatedBackend, FollowView
-from neuronav.backend import quat_product
 from neuronav.backends.pybullet.camera import render_flat, render_follow
 from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
 from neuronav.backends.pybullet.scene import build_ground, build_object, build_vision_world, place_objects
 from neuronav.backends.pybullet.urdf import body_to_urdf, find_geom
-from neuronav.body import BodySpec, Camera, quat_to_matrix
+from neuronav.engine.articulated import ArticulatedBackend, FollowView
+from neuronav.engine.backend import quat_product
 from neuronav.errors import ConfigError, SimulationError
-from neuronav.vision import View, check_camera
-from neuronav.world import World
+from neuronav.senses.vision import View, check_camera
+from neuronav.spec.body import BodySpec, Camera, quat_to_matrix
+from neuronav.spec.world import World
 
 GRAVITY_M_S2 = -9.81
 SAFE_MARGIN = 0.7  # keep explicit joint control this far inside its stability limit (1)

@@ -1,6 +1,6 @@
 """Cameras in PyBullet: flat-shaded views for body cameras and the lit follow view, through TinyRenderer.
 
-What TinyRenderer does and how it is made to follow :mod:`neuronav.vision`:
+What TinyRenderer does and how it is made to follow :mod:`neuronav.senses.vision`:
 
 - **Projection.** The OpenGL matrix is written here with independent horizontal and vertical fields
   of view (``f_x = 1 / tan(fov_h / 2)``, ``f_y = 1 / tan(fov_v / 2)``), clipping at
@@ -15,9 +15,9 @@ What TinyRenderer does and how it is made to follow :mod:`neuronav.vision`:
   (its bodies in the segmentation mask) are coloured here from where their ray meets the ground
   (the plane z = 0 for a flat ground, the depth buffer's distance on a heightfield):
   ``ground_rgb`` or the checker of ``World.appearance``, and on the odour trails' floor image
-  (:mod:`neuronav.trail_floor`) that image's texel, as the kinematic ray caster paints it.
+  (:mod:`neuronav.senses.trail_floor`) that image's texel, as the kinematic ray caster paints it.
 - **Sky.** The depth buffer is exactly 1 (the far plane) where nothing was drawn: that is the sky
-  mask, which the caller paints (:func:`neuronav.vision.compose_image`). With the near plane at
+  mask, which the caller paints (:func:`neuronav.senses.vision.compose_image`). With the near plane at
   5 mm, ground 500 m away still has a depth below 1 (1 - 5e-6; float32 resolves 6e-8 there).
 """
 
@@ -28,12 +28,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from neuronav.articulated import FollowView
 from neuronav.backends.pybullet.engine import pb
-from neuronav.body import Camera
-from neuronav.trail_floor import trail_floor
-from neuronav.vision import FAR_M, NEAR_M, View, pixel_directions, sky_rgb, to_uint8
-from neuronav.world import World
+from neuronav.engine.articulated import FollowView
+from neuronav.senses.trail_floor import trail_floor
+from neuronav.senses.vision import FAR_M, NEAR_M, View, pixel_directions, sky_rgb, to_uint8
+from neuronav.spec.body import Camera
+from neuronav.spec.world import World
 
 # TinyRenderer takes seconds for an eye exactly on a heightfield grid line with an axis-aligned view
 # (e.g. a forward camera after the default reset); a sub-micrometre shift avoids that.
@@ -65,7 +65,8 @@ def linear_depth_m(depth: np.ndarray, near_m: float = NEAR_M, far_m: float = FAR
 
 @lru_cache(maxsize=32)
 def _directions(width_px: int, height_px: int, fov_h_rad: float, fov_v_rad: float) -> np.ndarray:
-    """Unit pixel rays (H, W, 3) in the camera frame of a planar view (:func:`neuronav.vision.pixel_directions`)."""
+    """Unit pixel rays (H, W, 3) in the camera frame of a planar view
+    (:func:`neuronav.senses.vision.pixel_directions`)."""
     camera = Camera("view", "view", (0.0, 0.0, 0.0), width_px=width_px, height_px=height_px,
                     fov_rad=(fov_h_rad, fov_v_rad))
     directions = pixel_directions(camera)

@@ -7,10 +7,10 @@ Two builds of one :class:`World`:
   or a checker texture of squares of ``checker_m`` aligned with the world axes, with the parity of
   every backend: ``ground_rgb`` where ``floor(x / checker_m) + floor(y / checker_m)`` is even);
 - :func:`build_vision_world` in a render-only client that holds no body: looks only, the ground
-  reaching :data:`neuronav.vision.GROUND_REACH_M` from the origin. Body cameras colour the ground
+  reaching :data:`neuronav.senses.vision.GROUND_REACH_M` from the origin. Body cameras colour the ground
   themselves (:mod:`neuronav.backends.pybullet.camera`), so its look there does not matter.
 
-Odour trails (:mod:`neuronav.trail_floor`, flat grounds only): in the physics client, a visual-only
+Odour trails (:mod:`neuronav.senses.trail_floor`, flat grounds only): in the physics client, a visual-only
 mesh (no collision shape: nothing touches it, no ray hits it) over the floor image's rectangle,
 ``TRAIL_LIFT_M`` above z = 0, textured with the image (written once per image into ``folder``
 as a PNG); in the render-only client nothing: body cameras colour the floor's pixels from the
@@ -29,9 +29,9 @@ import zlib
 import numpy as np
 
 from neuronav.backends.pybullet.engine import pb
-from neuronav.trail_floor import TrailFloor, ground_rgb_at, png_bytes, trail_floor
-from neuronav.vision import GROUND_REACH_M, to_uint8
-from neuronav.world import World, WorldObject
+from neuronav.senses.trail_floor import TrailFloor, ground_rgb_at, png_bytes, trail_floor
+from neuronav.senses.vision import GROUND_REACH_M, to_uint8
+from neuronav.spec.world import World, WorldObject
 
 WALL_THICKNESS_M = 0.2
 WALL_RGB = (0.6, 0.6, 0.65)
@@ -193,7 +193,7 @@ def _wall(cid: int, world: World, with_collision: bool) -> int | None:
 def checker_image(appearance, squares: int) -> np.ndarray:
     """The appearance's checker over a floor of ``squares`` (even) squares a side centred on the origin,
     one texel per square (uint8 (squares, squares, 3), row 0 at the largest y): the colour of
-    :func:`neuronav.trail_floor.ground_rgb_at` at each square's centre."""
+    :func:`neuronav.senses.trail_floor.ground_rgb_at` at each square's centre."""
     centres = (np.arange(squares) + 0.5 - squares / 2.0) * appearance.checker_m
     return to_uint8(ground_rgb_at(appearance, centres[None, :], centres[::-1, None]))
 

@@ -1,7 +1,7 @@
 """Several ants in one PyBullet world: one physics client, one multibody per ant, ants colliding.
 
 :class:`PybulletSwarm` is the PyBullet twin of :class:`neuronav.backends.mujoco.swarm.MujocoSwarm`: a
-:class:`~neuronav.world.World` with N :class:`~neuronav.body.BodySpec`\\ s, read and written with a
+:class:`~neuronav.spec.world.World` with N :class:`~neuronav.spec.body.BodySpec`\\ s, read and written with a
 leading agent axis (``read`` (N, ...), ``write`` (N, ...), ``reset`` one start per ant), so a brain
 compiled with ``batch=N`` binds the same way as on the kinematic backend. Ant i is the multibody
 :attr:`PybulletSwarm.ants` [i], loaded from the URDF of its spec (:mod:`neuronav.backends.pybullet.urdf`);
@@ -30,15 +30,15 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from neuronav.articulated import check_swarm_load, check_timestep, swarm_capabilities
-from neuronav.backend import BackendBase, Capabilities, check_seed, quat_product, start_pose
 from neuronav.backends.pybullet.backend import DIVERGED_VELOCITY, GRAVITY_M_S2, PybulletBackend
 from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
 from neuronav.backends.pybullet.scene import build_ground, build_object
 from neuronav.backends.pybullet.urdf import body_to_urdf
-from neuronav.body import BodySpec, quat_to_matrix
+from neuronav.engine.articulated import check_swarm_load, check_timestep, swarm_capabilities
+from neuronav.engine.backend import BackendBase, Capabilities, check_seed, quat_product, start_pose
 from neuronav.errors import ConfigError, PortError, SimulationError
-from neuronav.world import World
+from neuronav.spec.body import BodySpec, quat_to_matrix
+from neuronav.spec.world import World
 
 
 class _Ant:

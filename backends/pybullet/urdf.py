@@ -1,6 +1,6 @@
 """BodySpec -> URDF text for PyBullet, generated from the spec (never converted from MJCF).
 
-Each :class:`~neuronav.body.Segment` becomes a link whose frame is the segment frame; the joint to
+Each :class:`~neuronav.spec.body.Segment` becomes a link whose frame is the segment frame; the joint to
 its parent sits at the segment's ``pos_m`` / ``quat`` (URDF joint origin, rpy from the quaternion).
 Hinges become ``revolute`` joints (axis, limits, effort = ``max_torque_nm``, damping); segments
 without a joint, or with a ``fixed`` one, are welded to their parent. The root link is the base:
@@ -29,8 +29,8 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from neuronav.body import BodySpec, Geom, Segment, quat_to_matrix
 from neuronav.errors import ConfigError
+from neuronav.spec.body import BodySpec, Geom, Segment, quat_to_matrix
 
 # PyBullet clamps every joint velocity at 100 rad/s anyway; the URDF limit only needs to be above it.
 JOINT_VELOCITY_LIMIT_RAD_S = 100.0

@@ -1,4 +1,4 @@
-"""The desert ant *Cataglyphis fortis* at ×100 scale, as a :class:`neuronav.body.BodySpec`.
+"""The desert ant *Cataglyphis fortis* at ×100 scale, as a :class:`neuronav.spec.body.BodySpec`.
 
 Numbers come from ``docs/parameters.md``§1 (itself from the I2Bot paper and its Webots model);
 ``bodies/desert_ant/README.md`` gives the provenance of each and says what was chosen where the
@@ -38,8 +38,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from neuronav.bodies.desert_ant import solved
-from neuronav.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix
 from neuronav.errors import ConfigError
+from neuronav.spec.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix
 
 LEGS = ("FL", "ML", "HL", "FR", "MR", "HR")
 LEG_JOINTS = ("ThCz", "ThCx", "CTr", "FTi", "TiTa")
