@@ -7,9 +7,11 @@ Two motion models (chosen by :class:`neuronav.spec.world.PointAgents`):
   ``position += velocity``. Commands: ``rotation`` (rad/step), ``acceleration`` (units/step²).
 - ``unicycle`` — driven by the locomotion command (``turn`` in [-1, 1], ``stride`` = hip swing S_l in
   rad) through a calibration table of (turn, stride) -> (forward speed m/s, turn rate rad/s),
-  interpolated bilinearly: the one measured on MuJoCo (``backends/data/unicycle_mujoco.json``,
-  made by ``python -m neuronav.scenarios.tools.calibrate_unicycle``) when present, else a geometric one.
-  Timestep 8 ms (the paper's control step).
+  interpolated bilinearly (:meth:`neuronav.spec.unicycle.UnicycleCalibration.rates`). The table is body
+  data: by default the desert ant's, measured on MuJoCo, found by name in the registry
+  (``registry.load("unicycle_calibration", "desert_ant")``: its file is
+  ``bodies/desert_ant/unicycle_mujoco.json``, made by ``python -m neuronav.scenarios.tools.calibrate_unicycle``),
+  else a geometric one. Timestep 8 ms (the paper's control step).
 
 Heading is clockwise from +y, so an agent at heading h moves along (sin h, cos h).
 
@@ -29,44 +31,24 @@ agents and antennae; ``antenna_yaw`` (N, A) rad swings each tip about the vertic
 
 from __future__ import annotations
 
-import json
+import warnings
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, replace
-from pathlib import Path
+from dataclasses import replace
 
 import numpy as np
 
+from neuronav import registry
 from neuronav.engine.backend import BackendBase, Capabilities, check_seed
-from neuronav.errors import ConfigError, PortError, SimulationError
+from neuronav.errors import ConfigError, PortError, RegistryError, SimulationError
 from neuronav.senses.chemistry import Chemistry
 from neuronav.senses.vision import average_samples, check_camera, grey, pixel_directions, sampling_camera
 from neuronav.spec.body import Camera, quat_to_matrix
 from neuronav.spec.ports import MotorSpec, SensorSpec
+from neuronav.spec.unicycle import UnicycleCalibration
 from neuronav.spec.world import PointAgents, World
 
-
-@dataclass(frozen=True)
-class UnicycleCalibration:
-    """(turn, stride) -> (forward speed, turn rate) on a grid.
-
-    Attributes
-    ----------
-    turn : ndarray, shape (T,)
-        Rotation configuration θ, increasing, covering [-1, 1].
-    stride_rad : ndarray, shape (S,)
-        Hip swing S_l in rad, increasing.
-    speed_m_s : ndarray, shape (T, S)
-    turn_rate_rad_s : ndarray, shape (T, S)
-        Positive turns clockwise (toward increasing heading).
-    source : str
-        Where the numbers come from.
-    """
-
-    turn: np.ndarray
-    stride_rad: np.ndarray
-    speed_m_s: np.ndarray
-    turn_rate_rad_s: np.ndarray
-    source: str
+# The body whose registered unicycle calibration the point agents walk by, unless given another.
+DEFAULT_BODY = "desert_ant"
 
 
 def geometric_calibration(hip_reach_m: float = 0.55, cycle_s: float = 0.64,
@@ -91,26 +73,6 @@ def geometric_calibration(hip_reach_m: float = 0.55, cycle_s: float = 0.64,
     return UnicycleCalibration(turn, stride, speed, turn_rate, source="geometric (not measured)")
 
 
-DATA_DIR = Path(__file__).resolve().parent / "data"
-
-
-def load_calibration(path: Path) -> UnicycleCalibration:
-    """A calibration table written by ``python -m neuronav.scenarios.tools.calibrate_unicycle``."""
-    try:
-        table = json.loads(Path(path).read_text())
-        calibration = UnicycleCalibration(
-            turn=np.array(table["turn"], float), stride_rad=np.array(table["stride_rad"], float),
-            speed_m_s=np.array(table["speed_m_s"], float), turn_rate_rad_s=np.array(table["turn_rate_rad_s"], float),
-            source=str(table["source"]),
-        )
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        raise ConfigError(f"unicycle calibration {path}: cannot be read ({error})") from None
-    expected = (calibration.turn.size, calibration.stride_rad.size)
-    if calibration.speed_m_s.shape != expected or calibration.turn_rate_rad_s.shape != expected:
-        raise ConfigError(f"unicycle calibration {path}: tables must have shape {expected}")
-    return calibration
-
-
 def _start_values(label: str, value, shape: tuple[int, ...], allowed: str) -> np.ndarray:
     """A start pose's ``value`` broadcast to ``shape`` as a finite float array, or a ConfigError."""
     try:
@@ -123,10 +85,26 @@ def _start_values(label: str, value, shape: tuple[int, ...], allowed: str) -> np
     return array
 
 
-def default_calibration() -> UnicycleCalibration:
-    """The table measured on MuJoCo when it ships with the package, else the geometric one."""
-    measured = DATA_DIR / "unicycle_mujoco.json"
-    return load_calibration(measured) if measured.exists() else geometric_calibration()
+def default_calibration(body: str = DEFAULT_BODY) -> UnicycleCalibration:
+    """The unicycle calibration registered for ``body`` (entry-point group ``neuronav.unicycle_calibrations``),
+    or the geometric one (with a RuntimeWarning) when none is registered under that name.
+
+    Raises
+    ------
+    RegistryError
+        ``body``'s calibration is registered but cannot be imported.
+    """
+    try:
+        loader = registry.load("unicycle_calibration", body)
+    except RegistryError:
+        if body in registry.names("unicycle_calibration"):
+            raise
+        # Said aloud: a stale install (entry points not refreshed) used to change every walk silently.
+        warnings.warn(f"no unicycle calibration is registered for body {body!r} (registered: "
+                      f"{', '.join(registry.names('unicycle_calibration')) or 'none'}): the kinematic agents "
+                      "walk by the geometric table, not the measured gait", RuntimeWarning, stacklevel=2)
+        return geometric_calibration()
+    return loader()
 
 
 class KinematicBackend(BackendBase):
@@ -134,6 +112,14 @@ class KinematicBackend(BackendBase):
 
     ``capabilities`` (the class attribute) lists the sensors and commands of camera-less agents;
     after :meth:`load` the instance's own adds one sensor per camera (shape (H, W), "grey [0, 1]").
+
+    Parameters
+    ----------
+    calibration : UnicycleCalibration, optional
+        The ``unicycle`` mode's table; default :func:`default_calibration` (the desert ant's, by name
+        through the registry), looked up on first use (``stone`` mode never needs it).
+    timestep_s : float
+        The ``unicycle`` mode's step (s), default 8 ms.
     """
 
     capabilities = Capabilities(
@@ -157,7 +143,7 @@ class KinematicBackend(BackendBase):
     def __init__(self, calibration: UnicycleCalibration | None = None, timestep_s: float = 0.008) -> None:
         if not timestep_s > 0:
             raise ConfigError(f"kinematic backend: timestep_s must be > 0, got {timestep_s}")
-        self.calibration = calibration or default_calibration()
+        self._calibration = calibration
         self._unicycle_dt_s = float(timestep_s)
         self._agents: PointAgents | None = None
         self._time_s = 0.0
@@ -191,13 +177,14 @@ class KinematicBackend(BackendBase):
         self.chemistry = Chemistry(world.odour)
         self.capabilities = replace(type(self).capabilities, sensors=type(self).capabilities.sensors + sensors,
                                     motors=type(self).capabilities.motors + motors, can_render=bool(cameras))
-        grid = (self.calibration.turn, self.calibration.stride_rad)
-        from scipy.interpolate import RegularGridInterpolator  # lazily: start-up cost
-
-        self._speed = RegularGridInterpolator(grid, self.calibration.speed_m_s, bounds_error=False, fill_value=None)
-        self._turn_rate = RegularGridInterpolator(grid, self.calibration.turn_rate_rad_s, bounds_error=False,
-                                                  fill_value=None)
         self.reset()
+
+    @property
+    def calibration(self) -> UnicycleCalibration:
+        """The ``unicycle`` mode's table (the default one is looked up on first use)."""
+        if self._calibration is None:
+            self._calibration = default_calibration()
+        return self._calibration
 
     @property
     def batch(self) -> int:
@@ -260,11 +247,10 @@ class KinematicBackend(BackendBase):
                 self.velocity = (self.velocity + thrust) * (1.0 - agents.drag)
                 self.position += self.velocity
             else:
-                turn = np.clip(self._commands["turn"][:, 0], -1.0, 1.0)
-                stride = np.clip(self._commands["stride"][:, 0], 0.0, self.calibration.stride_rad[-1])
-                query = np.stack([turn, stride], axis=1)
-                self.heading += self._turn_rate(query) * self.timestep
-                self.velocity = self._speed(query)[:, None] * self._direction()
+                speed_m_s, turn_rate_rad_s = self.calibration.rates(self._commands["turn"][:, 0],
+                                                                    self._commands["stride"][:, 0])
+                self.heading += turn_rate_rad_s * self.timestep
+                self.velocity = speed_m_s[:, None] * self._direction()
                 if push is not None:
                     self.velocity += push
                 self.position += self.velocity * self.timestep

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from neuronav.angles import wrap_rad
 from neuronav.errors import ConfigError
 
 # T_o^p, the odour detection threshold (paper, methods "Odour plume tracking").
@@ -53,11 +54,6 @@ MIN_STRIDE_DEG, STRIDE_STEP_DEG, MAX_STRIDE_DEG = 5.0, 5.0, 15.0
 # Branch codes of :meth:`PlumeController.step`.
 SEARCH, ORIENT, STRAIGHT = 0, 1, 2
 BRANCHES = ("search", "orient", "straight")
-
-
-def wrap_rad(angle_rad):
-    """Angles wrapped to [−π, π)."""
-    return (np.asarray(angle_rad, dtype=float) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def upwind_heading_rad(wind_mps) -> np.ndarray:

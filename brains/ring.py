@@ -75,6 +75,7 @@ from __future__ import annotations
 import numpy as np
 
 from neuronav import Circuit, ConfigError, PortError, SensorSpec
+from neuronav.angles import angle_difference_rad
 
 N_CELLS = 32
 MAX_CELLS = 10_000  # ring_attractor's bound: its n_cells² E -> E weights stay under 800 MB
@@ -199,7 +200,7 @@ def gaussian_cue(
     if not np.isfinite(sigma_rad) or sigma_rad <= 0:
         raise ConfigError(f"gaussian_cue: sigma_rad must be a finite number > 0, got {sigma_rad!r}")
     centre = np.asarray(centre_rad, dtype=float)
-    difference = np.angle(np.exp(1j * (cell_angles_rad(n_cells) - centre[..., None])))
+    difference = angle_difference_rad(cell_angles_rad(n_cells), centre[..., None])
     return amplitude * np.exp(-(difference**2) / (2.0 * sigma_rad**2))
 
 

@@ -62,6 +62,7 @@ from __future__ import annotations
 import numpy as np
 
 from neuronav import Circuit, ConfigError, SensorSpec
+from neuronav.angles import angle_difference_rad
 from neuronav.brains.cx import N_COLUMNS, heading_circuit, steering_populations
 
 MAX_SHIFT = 3
@@ -160,5 +161,5 @@ def shift_toward(heading_rad: np.ndarray, target_rad: float | np.ndarray, max_sh
         ``shift`` port.
     """
     heading = np.asarray(heading_rad, dtype=float).reshape(-1)
-    difference = np.angle(np.exp(1j * (np.asarray(target_rad, dtype=float) - heading)))
+    difference = angle_difference_rad(target_rad, heading)
     return np.clip(np.rint(difference / COLUMN_RAD), -max_shift, max_shift)[:, None]

@@ -35,6 +35,7 @@ from math import factorial
 
 import numpy as np
 
+from neuronav.angles import angle_difference_rad
 from neuronav.errors import ConfigError, PortError, real_or_nan
 
 DARK_THRESHOLD = 20.0 / 255.0  # I2Bot: 10-25 of 255
@@ -206,7 +207,7 @@ def compass_command(phase_rad: float, stored_phase_rad: float, dead_band_deg: fl
     if not np.isfinite(values).all() or values[2] < 0:
         raise ConfigError(f"compass_command: phases must be finite and dead_band_deg >= 0, got {phase_rad!r}, "
                           f"{stored_phase_rad!r}, {dead_band_deg!r}")
-    difference_deg = float(np.degrees(np.angle(np.exp(1j * (values[0] - values[1])))))
+    difference_deg = float(np.degrees(angle_difference_rad(values[0], values[1])))
     if abs(difference_deg) < dead_band_deg:
         return 0.0, 0.0
     return float(np.sign(difference_deg)), float(np.radians(min(abs(difference_deg) / 5.0, MAX_STRIDE_DEG)))

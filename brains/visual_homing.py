@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from neuronav.angles import angle_difference_rad
 from neuronav.errors import ConfigError
 
 COLUMN_DEG = 5.0
@@ -139,7 +140,7 @@ def homing_direction(views: np.ndarray, heading_rad: np.ndarray,
     if heading.size not in (1, n_views) or not np.isfinite(heading).all():
         raise ConfigError(f"homing_direction: heading_rad must be one finite number or {n_views}, got "
                           f"{heading_rad!r}")
-    direction = np.angle(np.exp(1j * (heading + turn_rad)))
+    direction = angle_difference_rad(heading + turn_rad, 0.0)  # the heading turned by turn_rad, wrapped
     envelope = differences.min(axis=1)
     median = np.median(envelope, axis=1)
     certainty = np.where(median > 0, 1.0 - envelope.min(axis=1) / np.where(median > 0, median, 1.0), 0.0)

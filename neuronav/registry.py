@@ -2,8 +2,10 @@
 
 The core never imports its sibling packages; it asks ``importlib.metadata`` for the entry points
 of the groups ``neuronav.backends``, ``neuronav.swarm_backends`` (many bodies in one engine world),
-``neuronav.bodies``, ``neuronav.brains`` and ``neuronav.scenarios``. A third-party package adds to any of
-them without touching this repository.
+``neuronav.bodies``, ``neuronav.unicycle_calibrations`` (a body's unicycle table for the kinematic
+backend, by the body's name: a function returning a :class:`~neuronav.spec.unicycle.UnicycleCalibration`),
+``neuronav.brains`` and ``neuronav.scenarios``. A third-party package adds to any of them without
+touching this repository.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ GROUPS = {
     "backend": "neuronav.backends",
     "swarm_backend": "neuronav.swarm_backends",
     "body": "neuronav.bodies",
+    "unicycle_calibration": "neuronav.unicycle_calibrations",
     "brain": "neuronav.brains",
     "scenario": "neuronav.scenarios",
 }
@@ -31,7 +34,7 @@ def _group(kind: str):
 
 
 def names(kind: str) -> list[str]:
-    """The registered names of one kind (``backend``, ``swarm_backend``, ``body``, ``brain``, ``scenario``), sorted."""
+    """The registered names of one kind (a key of :data:`GROUPS`: ``backend``, ``body``, ...), sorted."""
     return sorted(_group(kind))
 
 

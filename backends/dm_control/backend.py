@@ -88,6 +88,20 @@ class DmControlBackend(MujocoBackend):
         except PhysicsError:
             pass  # the MuJoCo backend's check (in step) sorts the warnings: fatal or only recorded
 
+    @staticmethod
+    def composer_environment(task, body: BodySpec, gait, **options):
+        """A ``dm_control.composer.Environment`` (``dm_env`` API) of an engine-free navigation ``task``.
+
+        What scenarios call, by name through the registry
+        (``registry.load("backend", "dm_control").composer_environment(...)``), so that none imports this
+        package: :func:`neuronav.backends.dm_control.composer_env.environment` with the same arguments
+        (``random_state``, ``time_limit_s`` and :class:`~neuronav.backends.dm_control.composer_env.PortTask`'s
+        keywords).
+        """
+        from neuronav.backends.dm_control.composer_env import environment  # it subclasses this backend
+
+        return environment(task, body, gait, **options)
+
     def raw_step(self, n: int = 1, targets: np.ndarray | None = None) -> None:
         """``Physics.step(n)`` and nothing else (no adhesion, no checks): for benchmarks.
 

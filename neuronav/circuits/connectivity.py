@@ -10,6 +10,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from neuronav.angles import angle_difference_rad
 from neuronav.errors import CircuitError
 
 
@@ -60,7 +61,7 @@ def gaussian_ring(target_size: int, source_size: int, sigma_rad: float = 1.0) ->
     if target_size != source_size:
         raise CircuitError(f"rule 'gaussian_ring' needs equal sizes, got {source_size} -> {target_size}")
     angles = 2.0 * np.pi * np.arange(target_size) / target_size
-    difference = np.angle(np.exp(1j * (angles[:, None] - angles[None, :])))
+    difference = angle_difference_rad(angles[:, None], angles[None, :])
     return np.exp(-(difference**2) / (2.0 * sigma_rad**2))
 
 

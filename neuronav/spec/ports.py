@@ -14,7 +14,28 @@ from neuronav.errors import PortError
 
 
 @dataclass(frozen=True)
-class SensorSpec:
+class _PortSpec:
+    """What a sensor and a motor port share, checked once when one is made: a non-empty name, a shape
+    of positive ints, units and a (low, high) range with low <= high (or None)."""
+
+    name: str
+    shape: tuple[int, ...]
+    units: str = ""
+    range: tuple[float, float] | None = None
+
+    _KIND = "port"  # the word naming the port in an error: "sensor" or "motor" (a class constant, no field)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.name, str) or not self.name:
+            raise PortError(f"port name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.shape, tuple) or not all(isinstance(n, int) and n > 0 for n in self.shape):
+            raise PortError(f"port {self.name!r}: shape must be a tuple of positive ints, got {self.shape!r}")
+        if self.range is not None and not self.range[0] <= self.range[1]:
+            raise PortError(f"{self._KIND} port {self.name!r}: range {self.range} has low > high")
+
+
+@dataclass(frozen=True)
+class SensorSpec(_PortSpec):
     """A sensor port.
 
     Parameters
@@ -30,19 +51,11 @@ class SensorSpec:
         port (NaN is outside every range), or None when any finite or infinite value is accepted.
     """
 
-    name: str
-    shape: tuple[int, ...]
-    units: str = ""
-    range: tuple[float, float] | None = None
-
-    def __post_init__(self) -> None:
-        _check_spec(self.name, self.shape)
-        if self.range is not None and not self.range[0] <= self.range[1]:
-            raise PortError(f"sensor port {self.name!r}: range {self.range} has low > high")
+    _KIND = "sensor"
 
 
 @dataclass(frozen=True)
-class MotorSpec:
+class MotorSpec(_PortSpec):
     """A motor port.
 
     Parameters
@@ -57,22 +70,7 @@ class MotorSpec:
         Allowed (low, high) range of the command, or None when unbounded.
     """
 
-    name: str
-    shape: tuple[int, ...]
-    units: str = ""
-    range: tuple[float, float] | None = None
-
-    def __post_init__(self) -> None:
-        _check_spec(self.name, self.shape)
-        if self.range is not None and not self.range[0] <= self.range[1]:
-            raise PortError(f"motor port {self.name!r}: range {self.range} has low > high")
-
-
-def _check_spec(name: str, shape: tuple[int, ...]) -> None:
-    if not isinstance(name, str) or not name:
-        raise PortError(f"port name must be a non-empty string, got {name!r}")
-    if not isinstance(shape, tuple) or not all(isinstance(n, int) and n > 0 for n in shape):
-        raise PortError(f"port {name!r}: shape must be a tuple of positive ints, got {shape!r}")
+    _KIND = "motor"
 
 
 def bind(

@@ -4,29 +4,19 @@ Once per gait cycle (0.64 s), for a batch of agents:
 
 1. The CX (:func:`neuronav.brains.cx.stone2017`, the embodied settings of ``path-integration``'s i2bot protocol)
    integrates the cycle's displacement; its CPU4 memory decodes (:func:`neuronav.brains.cx.decode_home_vector`)
-   to the PI home direction and a length. PI reliability ``r_PI = min(1, L / pi_full_m)``: it grows
-   with the home vector's length (Wystrach et al. 2015, Proc. R. Soc. B 282: 20151484).
+   to the PI home direction and a length. PI reliability ``r_PI = min(1, L / pi_full_m)``.
 2. The panorama's skyline band is compared with the snapshots stored facing the nest
    (:mod:`neuronav.brains.visual_homing`): the visual homing direction and the RIDF's relative depth ``c``.
    Visual reliability ``r_V = min(1, c / vision_full)``.
 3. Each cue is a Gaussian bump on the ring's 32 cells (:func:`neuronav.brains.ring.gaussian_cue`, width
    :data:`CUE_SIGMA_RAD`), of amplitude ``A r_i / (r_PI + r_V)`` with ``A`` = :data:`TOTAL_AMPLITUDE`
-   (twice the ring's tuned single-cue amplitude): the amplitudes share out a fixed total by
-   reliability. The ring (:func:`neuronav.brains.ring.ring_attractor`) starts silent and settles for 0.2 s;
-   its bump is the combined direction.
+   (twice the ring's tuned single-cue amplitude). The ring (:func:`neuronav.brains.ring.ring_attractor`)
+   starts silent and settles for 0.2 s; its bump is the combined direction.
 4. The bump is written as a goal in CPU4's format (:func:`neuronav.brains.cx.goal_pattern`) into Stone et al.'s
    steering (Pontine, CPU1), which compares it with the TB1 heading (:func:`neuronav.brains.cx.goal_steering`);
-   the turn and stride follow eqs. 3.6–3.7 for the batch (:func:`steering_commands`). The CPU1
-   imbalance is about -1.27 sin(goal - heading) (tested), so the default gain ``k_pi = 1`` saturates
-   the turn beyond ~50°; embodied homing's 5 saturates it at ~10° and flips the turn every cycle.
+   the turn and stride follow eqs. 3.6–3.7 for the batch (:func:`steering_commands`).
 
-Cue width: with Gaussian cues of 90° the settled bump lies within 3.5° of the amplitude-weighted
-circular mean ``arg(sum_i a_i exp(i mu_i))`` for conflicts up to 150° and weights 0.25–0.75
-(``tests/unit/test_cue_integration.py``). With narrower cues the ring turns winner-take-all at large
-conflicts: at 40° the bump for equal amplitudes sits midway up to a 90° conflict and on one cue
-beyond it; a quarter weight moves it only 4° (not the 18° of the weighted mean) at a 90° conflict.
-Measured by settling the ring on the two cues (total amplitude 6) for 0.2 s. The broad cues are
-close to the cosine codes of the CX (Stone et al. 2017; Sun et al. 2020).
+Why these widths, amplitudes and gains (measured): README.md in this folder, *Model choices*.
 """
 
 from __future__ import annotations

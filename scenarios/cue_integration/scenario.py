@@ -1,46 +1,28 @@
 """``cue-integration``: path integration and visual homing combined in the ring attractor (Sun et al. 2020).
 
-The field experiment (Legge et al. 2014, J. Exp. Biol. 217: 4159; Wystrach et al. 2015, Proc. R.
-Soc. B 282: 20151484): an ant with a full home vector is captured and released at a place it knows
-from its views, where the home vector and the view point different ways; its initial heading falls
-between the two, weighted by how much it trusts each.
+An ant with a full home vector is released where its views point home and its home vector points
+``conflict`` to one side; its initial heading shows how it weights the two cues. Per trial (seed s):
 
-Protocol per trial (seed s; ``docs/parameters.md``, *Cue integration*):
+- The world: a forest of ``trees`` 8–40 m around the nest (``forest_seed``: the same for every trial),
+  and ``snapshots`` panoramas stored facing the nest on a circle of ``snapshot_radius_m``, rendered by
+  the kinematic ray caster with the ant's panoramic camera.
+- The home vector: the CX integrates a straight outbound walk of ``pi_distance_m`` whose home vector
+  points ``conflict`` to a random side of the nest direction seen from the release point; the ant is
+  then released ``release_distance_m`` from the nest at a random bearing, facing a random heading.
+- Homing: every gait cycle the brain (:mod:`neuronav.scenarios.cue_integration.brain`) feeds the PI and
+  visual cues into the ring attractor by reliability and steers toward its bump through CPU1 (``cues``
+  may leave one out). The trial ends at the nest (``nest_radius_m``) or at ``timeout_s``.
 
-- The world: a seeded forest (``trees`` around the nest at the origin, 8–40 m away, ``forest_seed``:
-  the same forest for every trial, so trials can run as one batch). Around the nest the ant has
-  stored ``snapshots`` panoramas on a circle of ``snapshot_radius_m``, each facing the nest (its
-  learning walks), rendered by the kinematic ray caster with the ant's own panoramic camera.
-- The home vector: the CX integrates a straight outbound walk of ``pi_distance_m`` (0.29 m per gait
-  cycle, the straight tripod's 0.45 m/s) whose home vector points ``conflict`` to one side (clockwise
-  or counter-clockwise at random) of the true nest direction seen from the release point; then the
-  ant is "carried" to the release point, ``release_distance_m`` from the nest at a random bearing,
-  facing a random heading.
-- Homing: every gait cycle the brain (:mod:`neuronav.scenarios.cue_integration.brain`) integrates, decodes the
-  PI cue, matches its panorama against the snapshots (the visual cue), feeds both into the ring
-  attractor with amplitudes shared by reliability, and steers toward the settled bump through CPU1.
-  ``cues=pi`` or ``cues=vision`` leaves the other cue out (its amplitude 0). The trial ends at the nest
-  (``nest_radius_m``) or at ``timeout_s``.
+On the kinematic backend all trials run as one batch of agents (panoramas at ``kinematic_supersample``
+rays per pixel side); on MuJoCo and PyBullet one ant per trial.
 
-Metrics per trial (angles in degrees, signed, relative to the true nest direction from the release
-point, positive toward the side the PI cue was put on): ``initial_heading_deg`` (the bearing from
-the release point of where the path first reaches ``initial_distance_m`` from it), ``pi_cue_deg`` and
-``vision_cue_deg`` (what the two cues said at release), ``weight_pi`` (the PI cue's share of the
-amplitude at release), ``predicted_heading_deg`` (the amplitude-weighted circular mean of the two cues
-at release), ``error_to_pi_deg``, ``error_to_vision_deg`` and ``error_to_prediction_deg`` (absolute
-differences of the initial heading), ``success`` (reached the nest), ``time_to_nest_s``.
+Metrics per trial (degrees, signed, relative to the nest direction from the release point, positive
+toward the PI cue's side): ``initial_heading_deg`` (bearing of where the path first reaches
+``initial_distance_m`` from the release point), ``pi_cue_deg``, ``vision_cue_deg``, ``weight_pi`` and
+``predicted_heading_deg`` (the amplitude-weighted circular mean) at release, ``error_to_pi_deg``,
+``error_to_vision_deg``, ``error_to_prediction_deg``, ``success`` (reached the nest), ``time_to_nest_s``.
 
-Measured (seed 0; README, *cue-integration*): ``neuronav run cue-integration --trials 1000`` gives mean
-initial headings of 0.1, 8.7, 16.5, 22.5, 25.2 and 20.5° for conflicts of 0–150° against weighted
-predictions of -0.1, 9.1, 19.3, 26.8, 29.8 and 23.8° (PI weight 0.33): between the cues, 0.4–4.6° on
-the visual side of the prediction; ``--set cues=pi`` and ``cues=vision`` (300 agents) follow their own
-cue within 3°. ``neuronav sweep cue-integration --grid pi_distance_m=2,5,10,20 --set conflict_deg=90
---trials 100``: 4.9, 11.9, 25.0 and 45.3° for PI weights 0.07, 0.18, 0.33 and 0.50. The unit and
-cross-backend tests keep the shape of these findings on shorter runs.
-
-On the kinematic backend all trials run as one batch (1000 agents at once); on MuJoCo and PyBullet
-one ant per trial. The kinematic batch renders its panoramas with one ray per pixel
-(``kinematic_supersample``; the ant's camera averages 4 × 4), 16 times cheaper.
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -52,11 +34,13 @@ from pathlib import Path
 import numpy as np
 
 from neuronav import registry
+from neuronav.angles import angle_difference_rad
 from neuronav.config import field
 from neuronav.engine.loop import Clocks, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
-from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios import EVERY_BACKEND, settings
+from neuronav.scenarios.aggregation import per_condition, success_rate
 from neuronav.scenarios.cue_integration.brain import CueBrain, weighted_direction
 from neuronav.scenarios.trial_loop import run_loop
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
@@ -93,10 +77,8 @@ class CueIntegrationConfig:
                                       "the release point (m)", min_exclusive=0.0, max=8.0)
     nest_radius_m: float = field(0.7, "success: the body comes this close to the nest (m)", min_exclusive=0.0,
                                  max=8.0)
-    timeout_s: float = field(30.0, "a trial gives up after this long (s): at least one gait cycle, one look",
-                             min=CYCLE_S, max=3600.0)
-    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
-                              min=1e-4, max=0.008)
+    timeout_s: float = settings.trial_timeout_field(30.0, "look")
+    timestep_s: float = settings.timestep_field()
     kinematic_supersample: int = field(1, "kinematic batch: rays per pixel side of the panorama (the ant's "
                                        "camera: 4)", min=1, max=4)
 
@@ -132,7 +114,7 @@ def trial_setup(config: CueIntegrationConfig, seed: int) -> dict[str, float]:
     bearing = float(rng.uniform(0.0, 2.0 * np.pi))
     heading = float(rng.uniform(-np.pi, np.pi))
     side = 1.0 if rng.random() < 0.5 else -1.0
-    nest = float(np.angle(np.exp(1j * (bearing + np.pi))))
+    nest = float(angle_difference_rad(bearing + np.pi, 0.0))
     conflict = float(np.radians(conflicts[seed % len(conflicts)]))
     return {"conflict_rad": conflict, "release_m": config.release_distance_m * np.array([np.sin(bearing),
             np.cos(bearing)]), "heading_rad": heading, "nest_rad": nest, "side": side,
@@ -267,7 +249,7 @@ def physics_trial(config: CueIntegrationConfig, backend_name: str, snapshots: np
 
 def signed_deg(angle_rad, reference_rad) -> float:
     """``angle - reference`` wrapped to (-180, 180] degrees."""
-    return float(np.degrees(np.angle(np.exp(1j * (angle_rad - reference_rad)))))
+    return float(np.degrees(angle_difference_rad(angle_rad, reference_rad)))
 
 
 def crossing_bearing(path: np.ndarray, origin: np.ndarray, distance_m: float) -> float:
@@ -345,17 +327,15 @@ class CueIntegration(Scenario):
     def aggregate(self, trials: list[dict], config: CueIntegrationConfig) -> dict:
         """Per conflict angle: the circular mean initial heading (where any was measured), the mean
         prediction, the success rate."""
-        result = {}
-        rows = [t for t in trials if t.get("status", "ok") == "ok"]
-        for conflict in sorted({t["conflict_deg"] for t in rows}):
-            group = [t for t in rows if t["conflict_deg"] == conflict]
-            key = f"{conflict:g}"
-            initial = circular_mean_deg([t["initial_heading_deg"] for t in group])
-            if np.isfinite(initial):  # left out where no ant of the group got initial_distance_m away
-                result[f"initial_heading_{key}_deg"] = initial
-            result[f"predicted_heading_{key}_deg"] = circular_mean_deg([t["predicted_heading_deg"] for t in group])
-            result[f"success_{key}"] = float(np.mean([bool(t["success"]) for t in group]))
-        return result
+        def initial(group: list[dict]) -> float | None:  # None where no ant of the group got initial_distance_m away
+            value = circular_mean_deg([t["initial_heading_deg"] for t in group])
+            return value if np.isfinite(value) else None
+
+        return per_condition(trials, "conflict_deg", {
+            "initial_heading_{}_deg": initial,
+            "predicted_heading_{}_deg": lambda group: circular_mean_deg([t["predicted_heading_deg"] for t in group]),
+            "success_{}": success_rate,
+        })
 
     def run(self, config: CueIntegrationConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:

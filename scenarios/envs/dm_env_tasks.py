@@ -5,7 +5,8 @@
 ``beacon``, ``plume``) with its scenario's settings (the keys of ``neuronav run ... --set``) and
 returns a ``dm_control.composer.Environment``: the desert ant (a composer entity) walked by the FK
 tripod gait in the task's world (a composer arena), the task's observed ports and computed
-observations as observables, its reward and termination (see
+observations as observables, its reward and termination, built by the registered ``dm_control`` backend
+(``registry.load("backend", "dm_control").composer_environment``: see
 :mod:`neuronav.backends.dm_control.composer_env`)::
 
     from neuronav.scenarios.envs.dm_env_tasks import load
@@ -26,7 +27,6 @@ from typing import Any
 import numpy as np
 
 from neuronav import registry
-from neuronav.backends.dm_control.composer_env import environment
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.gaits import make_gait
 from neuronav.scenarios.envs.tasks import TASKS, make_task
@@ -59,10 +59,14 @@ def load(name: str, *, world_seed: int = 0, random_state: int | np.random.Random
     ------
     ConfigError
         An unknown task, or a setting its scenario does not have or does not allow.
+    RegistryError
+        The dm_control backend is not installed (dm-control installs on Python < 3.13 only).
     """
     task = make_task(name, **settings)
+    backend = registry.load("backend", "dm_control")  # the class: reached by name, never imported
     body = desert_ant()
     low, high = action_bounds()
-    return environment(task, body, make_gait("tripod", body), random_state=random_state, time_limit_s=time_limit_s,
-                       physics_timestep_s=task.physics_timestep_s, control_s=CONTROL_S, cycle_s=CYCLE_S,
-                       action_low=low, action_high=high, world_seed=world_seed)
+    return backend.composer_environment(
+        task, body, make_gait("tripod", body), random_state=random_state, time_limit_s=time_limit_s,
+        physics_timestep_s=task.physics_timestep_s, control_s=CONTROL_S, cycle_s=CYCLE_S, action_low=low,
+        action_high=high, world_seed=world_seed)

@@ -29,6 +29,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
+from neuronav.angles import angle_difference_rad
 from neuronav.config import build_config
 from neuronav.errors import ConfigError, PortError
 from neuronav.scenarios.envs.gym_env import MAX_STRIDE_RAD, port_box
@@ -133,7 +134,7 @@ class SwarmHomingEnv(ParallelEnv):
     def _observations(self, agents=None) -> dict:
         state = self._state
         goal = self.goals_m - state["position"]
-        heading = np.angle(np.exp(1j * state["heading"]))  # wrapped to (-π, π]
+        heading = angle_difference_rad(state["heading"], 0.0)  # wrapped to [-π, π]
         return {agent: {"heading": heading[i].astype(np.float32), "velocity": state["velocity"][i].astype(np.float32),
                         "goal_vector": goal[i].astype(np.float32)}
                 for i, agent in enumerate(self.possible_agents) if agents is None or agent in agents}

@@ -47,7 +47,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from neuronav.backends.kinematic import default_calibration
+from neuronav.bodies.desert_ant.unicycle import unicycle_calibration
 from neuronav.config import build_config
 from neuronav.errors import ConfigError
 from neuronav.scenarios.path_integration.embodied import CONTROL_S, CYCLE_S
@@ -82,8 +82,9 @@ class NavigationTask:
     """Walk to a goal: the reward is the progress toward it, success within ``success_radius_m``.
 
     Subclasses set ``name``, ``scenario`` (the scenario class whose settings and backends the task
-    takes), ``observation_ports`` and implement ``world``, ``start``, ``goal_m``,
-    ``success_radius_m`` and ``time_limit_s``.
+    takes), ``config_type``, ``observation_ports``, where their goal, success radius, time limit and
+    physics step are read in the scenario's settings (``goal_keys``, ``success_radius_key``,
+    ``time_limit_key``, ``physics_timestep_key``), and implement ``world`` and ``start``.
     """
 
     name: ClassVar[str]
@@ -91,9 +92,18 @@ class NavigationTask:
     config_type: ClassVar[type]  # the scenario's config dataclass
     observation_ports: ClassVar[tuple[str, ...]]
     task_sensors: ClassVar[tuple[SensorSpec, ...]] = ()
+    # Where the task's numbers come from: a key of the scenario's config, or (for goal_keys) a number.
+    goal_keys: ClassVar[tuple[str | float, str | float]]  # the goal's (x, y) in m
+    success_radius_key: ClassVar[str]  # m
+    time_limit_key: ClassVar[str]  # s
+    physics_timestep_key: ClassVar[str] = "timestep_s"  # s, the ant's physics step on a physics backend
 
     def __init__(self, **settings: Any) -> None:
         self.config = build_config(self.config_type, settings)
+
+    def setting(self, key: str | float) -> float:
+        """The scenario's setting ``key`` as a float (a number given instead of a key is itself)."""
+        return float(getattr(self.config, key)) if isinstance(key, str) else float(key)
 
     @property
     def backends(self) -> tuple[str, ...]:
@@ -103,7 +113,22 @@ class NavigationTask:
     @property
     def physics_timestep_s(self) -> float:
         """The scenario's physics step of the ant (s) on a physics backend."""
-        return float(self.config.timestep_s)
+        return self.setting(self.physics_timestep_key)
+
+    @property
+    def goal_m(self) -> np.ndarray:
+        """The goal (2,) m."""
+        return np.array([self.setting(key) for key in self.goal_keys])
+
+    @property
+    def success_radius_m(self) -> float:
+        """Success within this distance of the goal (m)."""
+        return self.setting(self.success_radius_key)
+
+    @property
+    def time_limit_s(self) -> float:
+        """The scenario's timeout (s): an episode that reaches it is truncated."""
+        return self.setting(self.time_limit_key)
 
     # -- what subclasses define -----------------------------------------------------------------
     def world(self, seed: int = 0) -> World:
@@ -111,10 +136,6 @@ class NavigationTask:
 
     def start(self, seed: int) -> Start:
         raise NotImplementedError
-
-    goal_m: np.ndarray
-    success_radius_m: float
-    time_limit_s: float
 
     # -- shared ---------------------------------------------------------------------------------
     @property
@@ -156,27 +177,24 @@ def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: flo
 
     The same walk as :class:`neuronav.scenarios.path_integration.embodied.HomingBrain` commands (from the nest, heading
     uniform in [0, 2π), a turn command ``0.7 turn + N(0, turn_std)`` per gait cycle at a fixed
-    stride), moved as the kinematic unicycle moves (its calibration's speed and turn rate, 8 ms steps).
+    stride), moved as the kinematic unicycle moves: the desert ant's calibration (the body data the kinematic
+    backend walks by) read through :meth:`~neuronav.spec.unicycle.UnicycleCalibration.rates`, the
+    interpolation the backend's step calls, in 8 ms steps. Each gait cycle's constant command is summed in
+    closed form, which ends within 1e-9 m of the backend's step-by-step walk (``tests/unit/test_env_tasks.py``).
     ``attempt`` 0 draws trial ``seed``'s walk as the scenario does; other attempts draw other walks.
     """
-    calibration = default_calibration()
+    calibration = unicycle_calibration()
     streams = [] if attempt == 0 else [attempt]
     rng = np.random.default_rng([seed, 3, *streams])
     heading = float(rng.uniform(0.0, 2.0 * np.pi))
-    stride = float(np.clip(stride_rad, 0.0, calibration.stride_rad[-1]))
-    from scipy.interpolate import RegularGridInterpolator
-
-    grid = (calibration.turn, calibration.stride_rad)
-    speed = RegularGridInterpolator(grid, calibration.speed_m_s, bounds_error=False, fill_value=None)
-    rate = RegularGridInterpolator(grid, calibration.turn_rate_rad_s, bounds_error=False, fill_value=None)
     position, turn = np.zeros(2), 0.0
     steps_per_cycle = int(round(CYCLE_S / CONTROL_S))
     cycles = int(math.ceil(outbound_s / CYCLE_S - 1e-9))
     walk_rng = np.random.default_rng([seed, 2, *streams])
     for _ in range(cycles):
         turn = float(np.clip(0.7 * turn + walk_rng.normal(0.0, turn_std), -1.0, 1.0))
-        query = np.array([[turn, stride]])
-        v_m_s, w_rad_s = float(speed(query)[0]), float(rate(query)[0])
+        speed_m_s, turn_rate_rad_s = calibration.rates(turn, stride_rad)
+        v_m_s, w_rad_s = float(speed_m_s[0]), float(turn_rate_rad_s[0])
         # Each control step turns, then moves along the new heading (the kinematic backend's order).
         headings = heading + w_rad_s * CONTROL_S * np.arange(1, steps_per_cycle + 1)
         position = position + v_m_s * CONTROL_S * np.array([np.sin(headings).sum(), np.cos(headings).sum()])
@@ -197,22 +215,10 @@ class HomingTask(NavigationTask):
     config_type = PathIntegrationConfig
     observation_ports = ("heading", "velocity")
     task_sensors = (SensorSpec("home_vector", (2,), "m"),)
-
-    @property
-    def goal_m(self) -> np.ndarray:
-        return np.zeros(2)
-
-    @property
-    def success_radius_m(self) -> float:
-        return float(self.config.nest_radius_m)
-
-    @property
-    def time_limit_s(self) -> float:
-        return float(self.config.homing_timeout_s)
-
-    @property
-    def physics_timestep_s(self) -> float:
-        return float(self.config.embodied_timestep_s)
+    goal_keys = (0.0, 0.0)
+    success_radius_key = "nest_radius_m"
+    time_limit_key = "homing_timeout_s"
+    physics_timestep_key = "embodied_timestep_s"
 
     def world(self, seed: int = 0) -> World:
         return World(ground=Ground(size_m=HOMING_FLOOR_M))
@@ -250,18 +256,9 @@ class BeaconTask(NavigationTask):
     scenario = VisualBeacon
     config_type = VisualBeaconConfig
     observation_ports = ("heading", "eye_L", "eye_R")
-
-    @property
-    def goal_m(self) -> np.ndarray:
-        return np.array([0.0, self.config.landmark_distance_m])
-
-    @property
-    def success_radius_m(self) -> float:
-        return float(self.config.success_radius_m)
-
-    @property
-    def time_limit_s(self) -> float:
-        return float(self.config.timeout_s)
+    goal_keys = (0.0, "landmark_distance_m")
+    success_radius_key = "success_radius_m"
+    time_limit_key = "timeout_s"
 
     def world(self, seed: int = 0) -> World:
         return beacon_world(self.config, seed)
@@ -283,22 +280,13 @@ class PlumeTask(NavigationTask):
     scenario = PlumeTracking
     config_type = PlumeTrackingConfig
     observation_ports = ("heading", "odour", "wind")
+    goal_keys = ("source_x_m", 0.0)
+    success_radius_key = "success_radius_m"
+    time_limit_key = "timeout_s"
 
     @property
     def state_ports(self) -> tuple[str, ...]:
         return (*super().state_ports, "odour_sites")
-
-    @property
-    def goal_m(self) -> np.ndarray:
-        return np.array([self.config.source_x_m, 0.0])
-
-    @property
-    def success_radius_m(self) -> float:
-        return float(self.config.success_radius_m)
-
-    @property
-    def time_limit_s(self) -> float:
-        return float(self.config.timeout_s)
 
     def world(self, seed: int = 0) -> World:
         return plume_world(self.config)

@@ -1,41 +1,25 @@
 """``locomotion``: the desert ant walks with an FK or IK gait on flat, uneven or vertical ground.
 
-The paper's §2.2 and Fig. 2: gaits (tripod, ripple, wave; IK tripod), turning with the Table 2
-yaw control, uneven terrain, and wall climbing with adhesion. One body per physics engine, so
-trials run one after another; trial i uses seed ``seed + i`` (it sets the terrain, the start spot
-on rough ground and a small random initial yaw).
+Runs the body on a physics backend with the configured gait (tripod, ripple, wave; IK tripod), turn θ
+(Table 2 yaw control) and terrain, trials one after another; trial i uses seed ``seed + i`` (terrain,
+start spot on rough ground, a small random initial yaw). Physics every ``timestep_s`` (2 ms), the gait
+every ``control_dt_s`` (8 ms), ramping up to the full stride over its first cycle.
 
-Clocks: physics every ``timestep_s`` (2 ms), the gait every ``control_dt_s`` (8 ms, the paper's
-control step; one gait sample per control step). Gaits start from the rest pose and ramp up to
-the full stride over their first cycle (:meth:`neuronav.bodies.gaits.FKGait.envelope`).
+Positions, speeds and heights are those of the body centre (the centre of mass at the rest pose, fixed
+in the thorax frame 0.34 m behind the root). Metrics per trial: ``forward_speed_m_s``,
+``lateral_drift_m`` (+ = left), ``turn_rate_rad_s`` (counter-clockwise positive), body height mean and
+variance, roll and pitch variance (these five NaN for a start on the wall), ``mean_abs_torque_nm``,
+``cost_of_transport`` (Σ|τ·q̇|dt over m·g·distance), ``climb_height_m`` (highest centre height above
+the start) and ``climb_final_m`` (at the end), ``gait_us_per_step``, ``real_time_factor`` and ``fell``
+(:func:`fell_over`); ``success`` = not fell.
 
-Where things are measured: positions, speeds and heights at the body centre (the whole body's
-centre of mass at the rest pose, a point fixed in the thorax frame 0.34 m behind the root, between
-the middle legs), not at the root, which sits at the front of the thorax and swings round a
-0.34 m circle when the ant turns on the spot.
+Wall (``terrain=wall``): a vertical wall faces -x at x = 1 m. ``wall_start=wall`` starts the ant on it,
+head up, its centre ``wall_start_height_m`` up; ``wall_start=floor`` walks it at the wall from the
+origin, with ``wall_posture`` holding the climbing posture. With ``adhesion_n`` > 0 the backend presses
+claws into the surface they touch: every touching claw (``adhesion_rule=touch``) or only those of legs
+in stance (``adhesion_rule=stance``, the :class:`StanceAdhesion` hook).
 
-Metrics per trial: ``forward_speed_m_s`` (displacement along the initial heading per second),
-``lateral_drift_m`` (sideways displacement at the end, + = left), ``turn_rate_rad_s`` (heading change
-per second, counter-clockwise positive, so turn > 0 gives a positive rate), body height mean and
-variance, roll and pitch variance (these five are NaN for a start on the wall, where heading, roll
-and pitch against the floor mean nothing), ``mean_abs_torque_nm``, ``cost_of_transport`` (mechanical work
-Σ|τ·q̇|dt over m·g·distance), ``climb_height_m`` (highest centre height above its start) and
-``climb_final_m`` (the same at the end: below the peak when the ant slid back), ``gait_us_per_step``
-(time to compute one gait sample), ``real_time_factor`` and ``fell`` (the body's up axis tipped more
-than 80° away from the floor's normal and, near the wall, from the wall's; or the centre dropped
-below 0.1 m above the ground under it: :func:`fell_over`); ``success`` = not fell.
-
-Wall (``terrain=wall``): a vertical wall faces -x at x = 1 m. As in I2Bot's climbing world the ant
-starts on it (``wall_start=wall``): head up, belly to the wall, its centre ``wall_start_height_m``
-up; ``wall_start=floor`` starts it at the origin heading +x, walking at the wall (its head reaches
-the wall after about 0.9 m), and with ``wall_posture`` holds the head raised, the antennae folded
-and the gaster raised and swings the front legs 17° further forward, so that the front claws meet
-the wall first. With ``adhesion_n`` > 0 the backend presses touching claws into the surface they
-touch: every touching claw (``adhesion_rule=touch``, I2Bot's rule) or only the claws of legs in
-stance (``adhesion_rule=stance``: the :class:`StanceAdhesion` hook switches each pad off while its
-leg swings). ``bodies/desert_ant/README.md`` ("Wall climbing") has the measured sweep: the IK tripod
-climbs on both engines with pads released in swing from 200 N, and on PyBullet under the touch
-rule only in a band of forces (more force is not better, as in the paper).
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations

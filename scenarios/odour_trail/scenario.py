@@ -1,65 +1,22 @@
 """Odour trail following with fixed or sweeping antennae (the I2Bot paper's §2.5.1, Fig. 6a–d).
 
-An odour trail is drawn on the floor (:class:`neuronav.senses.odour.PolylineTrail`, concentration 1 on it,
-0 off it, widths narrow 0.11 m, normal 0.27 m, wide 1.4 m). The ant starts on the trail, 0.4 m
-from its beginning, facing along it, with the trail's end 5 m away in a straight line (the paper:
-every agent starts at the same place with the same heading, walking toward the end). The trail
-(:data:`TRAIL_VERTICES_M`, 6.0 m) steps 0.8 m to the right and back, with four 39° bends, so that an
-ant that only walked straight would leave it (even the wide one: 0.8 m from its centre line).
+An odour trail is drawn on the floor (:class:`neuronav.senses.odour.PolylineTrail` along
+:data:`TRAIL_VERTICES_M`, concentration 1 on it, 0 off it; ``width`` narrow 0.11 m, normal 0.27 m,
+wide 1.4 m). The ant starts on it, 0.4 m from its beginning, facing along it, its end 5 m away.
+Once per gait cycle (0.64 s) the brain steers by Table 3 (:class:`neuronav.brains.trail_following.TrailFollowing`)
+from what its two odour sites sensed: each site's highest concentration during the cycle, sampled every
+8 ms control step (``sensing=cycle_peak``, :class:`OdourPeakHook`), or the concentration at that moment
+(``sensing=instant``). The antennae rest ``antenna_yaw_rad`` outward and are ``fixed`` or ``moving``
+(swept in yaw ±0.7 rad with a noisy rhythm, :class:`neuronav.bodies.antennae.AntennaSweep`, seeded per
+trial); ``both`` alternates them by the trial seed (even: fixed, odd: moving).
 
-Once per gait cycle (0.64 s) the brain steers by the paper's Table 3
-(:class:`neuronav.brains.trail_following.TrailFollowing`: search with random turns when neither antenna smells
-the trail, turn toward the stronger side when they differ, else straight) from what its two odour
-sites sensed: by default (``sensing=cycle_peak``) each site's highest concentration during the cycle
-(sampled every 8 ms control step, :class:`OdourPeakHook`: what the antenna met, as a receptor's
-response outlasts a brief contact), or (``sensing=instant``) the concentration at that moment.
-The antennae are ``fixed`` at rest, or ``moving``: both sweep in yaw ±0.7 rad with a noisy rhythm
-(:class:`neuronav.bodies.antennae.AntennaSweep`, the defaults of ``bodies/antennae.py``, seeded per trial).
-``both`` alternates them by the trial seed (even: fixed, odd: moving), so one run compares them.
-They rest 0.25 rad outward (``antenna_yaw_rad``; the body's default is I2Bot's 0.6): their odour
-sites 0.23 m apart, inside the normal trail. The paper's finding needs it: with the body's 0.6 rad
-the sites sit 0.43 m apart, both off the 0.27 m trail whenever the ant is centred on it, and no
-ant follows the normal trail (measured before this default: completion 0.02–0.16 on both engines).
+Metrics per trial: ``success`` (the body centre reached the trail's last ``success_radius_m`` of arc
+length, within ``width / 2 + reach_m`` of the centre line), ``finish_time_s`` (NaN if never),
+``completion`` (the furthest arc length reached while within that reach, from the start to the end;
+1 on success), ``time_on_trail`` (the fraction of gait cycles with the body centre or an antenna on the
+trail, concentration >= 0.5); per antenna mode their means and the median finish time.
 
-Metrics per trial
------------------
-``success``: the body centre reached the trail's end — its last ``success_radius_m`` of arc length,
-within ``width / 2 + reach_m`` of the centre line (the finish line in the figure).
-``finish_time_s``: when it did (NaN when it never did). ``completion``: how far along the trail
-the ant got, the furthest arc length of its body centre's projection on the centre line among the
-moments it was within reach of the trail (centre within ``width / 2 + reach_m``), from the start's
-arc length to the end (1 when it succeeded). ``time_on_trail``: the fraction of gait cycles at
-which the body centre or an antenna stood on the trail (concentration >= 0.5).
-
-The paper's finding, measured
------------------------------
-``neuronav run odour-trail --backend B --trials 20 --seed 0 --set width=W`` (``both``: 10 fixed,
-10 moving; every other setting at its default; timeout 90 s):
-
-=========  ======  ======================  ===================  ============================
-backend    width   completion fixed/mov    success fixed/mov    median finish fixed/mov (s)
-=========  ======  ======================  ===================  ============================
-mujoco     normal  0.966 / 0.957           8/10 / 9/10          28.8 / 23.5
-mujoco     wide    0.936 / 1.000           8/10 / 10/10         21.4 / 15.8
-pybullet   normal  1.000 / 1.000           10/10 / 10/10        26.2 / 21.4
-pybullet   wide    0.885 / 1.000           7/10 / 10/10         24.1 / 17.3
-kinematic  normal  1.000 / 1.000           10/10 / 10/10        36.5 / 29.5
-kinematic  wide    0.901 / 1.000           7/10 / 10/10         29.1 / 19.4
-=========  ======  ======================  ===================  ============================
-
-On the normal trail moving antennae do as well as fixed ones (both follow it to the end); on the
-wide trail they do clearly better: every moving trial reaches the end, 26–33 % sooner, while 2–3
-fixed trials of 10 lose the trail. Seeds 20–39 on MuJoCo (``--seed 20``): normal 10/10 and 10/10
-(28.8 / 24.4 s), wide 9/10 and 10/10 (21.4 / 15.5 s). Why: on the wide trail the fixed sites, 0.23 m
-apart in a 1.4 m trail, both smell it until the ant is nearly off it, so at a bend the ant walks
-straight until one leaves, and sometimes both leave together (Table 3 then searches on the spot and
-may not find it again); the sweep reaches 0.3 m to either side, so the cycle's peak loses one side
-first and the ant turns back earlier. On the normal trail the sweep's extra reach costs nothing,
-because the cycle's peak still finds the trail under each site.
-
-Reading one moment per cycle (``--set sensing=instant``, MuJoCo, seed 0) loses this: the fixed ant
-leaves the normal trail at its bends (0/10 reach the end, completion 0.76; moving 1/10, 0.66), and on
-the wide trail fixed and moving ants do alike (10/10 and 9/10, 18.3 / 19.4 s).
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -75,7 +32,8 @@ from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
-from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios import EVERY_BACKEND, settings
+from neuronav.scenarios.aggregation import finite_median_of, mean_of, per_condition, success_rate
 from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import vision_appearance
@@ -121,10 +79,8 @@ class OdourTrailConfig:
                                     "within width / 2 + reach_m of it (m)", min_exclusive=0.0, max=3.0)
     reach_m: float = field(0.5, "completion counts progress while the body centre is within width / 2 + this "
                            "of the trail (m)", min=0.0, max=3.0)
-    timeout_s: float = field(90.0, "a trial gives up after this long (s): at least one gait cycle, one sniff",
-                             min=CYCLE_S, max=3600.0)
-    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
-                              min=1e-4, max=0.008)
+    timeout_s: float = settings.trial_timeout_field(90.0, "sniff")
+    timestep_s: float = settings.timestep_field()
 
     def controller(self) -> TrailFollowing:
         return TrailFollowing(t_d=self.t_d, t_o=self.t_o, k_d=self.k_d, sensor_scale=self.sensor_scale)
@@ -317,17 +273,10 @@ class OdourTrail(Scenario):
     def aggregate(self, trials: list[dict], config: OdourTrailConfig) -> dict:
         """Per antenna mode (among the finished trials): the fraction that reached the end, the mean
         completion and time on the trail, and the median finish time of those that finished."""
-        result = {}
-        for k, mode in enumerate(ANTENNA_MODES):
-            rows = [t for t in trials if t.get("status", "ok") == "ok" and t.get("antennae_moving") == k]
-            if not rows:
-                continue
-            times = [t["finish_time_s"] for t in rows if np.isfinite(t["finish_time_s"])]
-            result[f"success_{mode}"] = float(np.mean([bool(t["success"]) for t in rows]))
-            result[f"completion_{mode}"] = float(np.mean([t["completion"] for t in rows]))
-            result[f"time_on_trail_{mode}"] = float(np.mean([t["time_on_trail"] for t in rows]))
-            result[f"median_finish_{mode}_s"] = float(np.median(times)) if times else float("nan")
-        return result
+        return per_condition(trials, "antennae_moving", {
+            "success_{}": success_rate, "completion_{}": mean_of("completion"),
+            "time_on_trail_{}": mean_of("time_on_trail"), "median_finish_{}_s": finite_median_of("finish_time_s"),
+        }, labels=dict(enumerate(ANTENNA_MODES)))
 
     def run(self, config: OdourTrailConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:

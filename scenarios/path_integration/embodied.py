@@ -15,6 +15,12 @@ brain step, ``velocity_input = "pose"``, smooth like the paper's supervisor inpu
 instantaneous velocity sensor times the cycle length (``"measured"``: it carries the gait's
 wobble). The same protocol runs on the kinematic backend's unicycle, driven by the same command,
 so the three bodies can be compared.
+
+Metrics per trial: ``success`` (within ``nest_radius_m``), ``homing_time_s``, ``closest_distance_m``,
+``home_distance_m`` at the turn-back, ``straightness`` of the homing path, ``decode_error_deg`` (home
+vector decoded from CPU4 at the turn-back vs the true one), ``trial_time_s``, ``real_time_factor``.
+
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations

@@ -11,6 +11,9 @@ within ``success_radius``), ``tortuosity_mu`` and ``tortuosity`` (Stone's straig
 ``decode_error_deg`` (home vector decoded from CPU4 vs the true one at the turn-back point),
 ``home_distance`` and ``decoded_distance`` at the turn-back point, ``homing_steps`` (steps until
 within the success radius, NaN if never). Aggregate: Stone's tortuosity τ = 1 / (1 − mean μ).
+``protocol=i2bot`` (the default on physics backends) runs :mod:`.embodied` instead.
+
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -21,11 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from neuronav import bind, registry
+from neuronav.angles import angle_difference_rad
 from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
-from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.spec.world import PointAgents, World
 
 
@@ -49,7 +53,7 @@ class PathIntegrationConfig:
     drag: float = field(0.15, "fraction of the velocity lost per step", min=0.0, max_exclusive=1.0)
     # The CPU4 memory lives in [0, 1]: a gain of 1 fills it in one step of full drive.
     memory_gain: float = field(0.0025, "CPU4 integration gain h per step", min_exclusive=0.0, max=1.0)
-    memory_leak: float = field(0.125, "CPU4 leak factor k (memory loses h*k per step)", min=0.0, max=1.0)
+    memory_leak: float = settings.cpu4_leak_field()
     dtype: str = field("float32", "arithmetic of the CX (float32 is faster; float64 for reference runs)",
                        choices=("float32", "float64"))
     noise_method: str = field("table", "CX noise sampler: 'table' (16-bit normal quantiles, faster) or "
@@ -60,21 +64,17 @@ class PathIntegrationConfig:
     protocol: str = field("auto", "stone2017 (point agents, steps) or i2bot (a body walked by a gait, metres "
                           "and seconds); auto: stone2017 on kinematic, i2bot on physics backends",
                           choices=("auto", "stone2017", "i2bot"))
-    outbound_s: float = field(32.0, "i2bot: foraging time (s)", min_exclusive=0.0, max=3600.0)
-    homing_timeout_s: float = field(90.0, "i2bot: homing gives up after this long (s)", min_exclusive=0.0,
-                                    max=3600.0)
-    nest_radius_m: float = field(0.67, "i2bot: success when the body comes this close to the nest (m)",
-                                 min_exclusive=0.0, max=100.0)
-    k_pi: float = field(5.0, "i2bot: turn = k_PI (sum CPU1 left - sum CPU1 right) (eq. 3.6)", min_exclusive=0.0,
-                        max=1000.0)
-    embodied_noise: float = field(0.0008, "i2bot: CX rate noise (the paper's code)", min=0.0, max=1.0)
-    embodied_memory_gain: float = field(0.04, "i2bot: CPU4 gain per gait cycle (the paper's code)",
-                                        min_exclusive=0.0, max=1.0)
+    outbound_s: float = settings.outbound_field("i2bot")
+    homing_timeout_s: float = settings.homing_timeout_field("i2bot")
+    nest_radius_m: float = settings.nest_radius_field("i2bot: success when the body comes this close to the nest (m)")
+    k_pi: float = settings.homing_gain_field("i2bot")
+    embodied_noise: float = settings.cx_noise_field("i2bot")
+    embodied_memory_gain: float = settings.cpu4_gain_field("i2bot")
     velocity_input: str = field("pose", "i2bot: velocity fed to the CX: displacement per gait cycle (pose) or "
                                 "the instantaneous velocity sensor (measured)", choices=("pose", "measured"))
-    foraging_turn_std: float = field(0.35, "i2bot: std of the random turn command per gait cycle "
-                                     "(the command is clipped to [-1, 1])", min=0.0, max=10.0)
-    foraging_stride_deg: float = field(15.0, "i2bot: hip swing while foraging (deg)", min=0.0, max=40.0)
+    foraging_turn_std: float = settings.foraging_turn_field("i2bot: std of the random turn command per gait cycle "
+                                                            "(the command is clipped to [-1, 1])")
+    foraging_stride_deg: float = settings.foraging_stride_field("i2bot")
     embodied_timestep_s: float = field(0.002, "i2bot: physics step of the body (s)", min_exclusive=0.0,
                                        max=0.008)
 
@@ -326,7 +326,7 @@ def trial_metrics(positions: np.ndarray, t_out: int, turnback_memory: np.ndarray
     step_lengths = np.hypot(steps[..., 0], steps[..., 1])
     true_home = np.arctan2(-positions[t_out, :, 0], -positions[t_out, :, 1])
     decoded_direction, decoded_distance = decode_home_vector(turnback_memory, config.memory_gain)
-    decode_error = np.degrees(np.abs(np.angle(np.exp(1j * (decoded_direction - true_home)))))
+    decode_error = np.degrees(np.abs(angle_difference_rad(decoded_direction, true_home)))
     finite_trials = np.isfinite(positions).all(axis=(0, 2))
     closest_all = homing.min(axis=0)
     mus = np.where(finite_trials, stone_tortuosity_mu(homing, step_lengths, home_distance), np.nan)

@@ -1,52 +1,27 @@
-"""Odour plume tracking (the I2Bot paper's §2.5.2, Fig. 6e–g): the ant walks up a turbulent plume to its source.
+"""Odour plume tracking (I2Bot §2.5.2, Fig. 6e–g): the ant walks up a turbulent plume to its source.
 
-The world is I2Bot's 8 × 4 m arena (x in [0, 8] m, y in [−2, 2] m) with a Farrell filament plume
-(:mod:`neuronav.senses.plume`): a source at ``(source_x_m, 0)`` near the upwind end releases 60 puffs per
-second into a wind of mean ``(wind_mps, 0)`` m/s plus coloured noise. The plume runs for
-``warmup_s`` before the trial starts, so it fills the arena (at 2 m/s a puff crosses it in 4 s).
-Every trial's seed seeds the plume (``backend.reset(seed)``), the start and the brain's search turns.
-
-The ant starts downwind at ``x = start_x_m``, at a lateral position drawn uniformly within
-``±start_lateral_m`` (0.5 m) of the plume's axis and a heading drawn uniformly within
-``±start_heading_deg`` (45°) of upwind (180: any heading). Once per gait cycle
-(0.64 s) the brain reads ``odour`` (1, 2, K) and ``wind`` (1, 2, 2) at the antenna tips and its
-``heading``, and steers by eq. 3.11 (:class:`neuronav.brains.plume_tracking.PlumeController`): with odour
-above 1e-6 at either antenna it turns toward upwind as sensed at the antenna with more odour, then
-walks straight two gait cycles; without odour it turns on the spot at random. ``odour=off`` is the
-control: the brain's odour input is zero, so it always searches. ``stride_rule=divide`` reads eq.
-3.11's stride as ``5° + |m − h| / 5`` (at most 15°) instead of the printed ``5° + (m − h) mod 5°``
-(:mod:`neuronav.brains.plume_tracking`).
-
-The start matters: an ant that loses the plume turns on the spot until the meandering plume comes
-back over it, and each orienting turn (12–23° per gait cycle at a 5–10° stride) is followed by two
-straight cycles (about 1.2 m), so an ant that starts facing across or down the wind often walks out
-of the plume before it faces upwind. Measured on the kinematic backend, 30 trials (seeds 0–29),
-60 s, the fraction that reached the source::
-
-    start heading within   ±45°   ±90°   ±180°
-    stride_rule=mod        0.77   0.50   0.43
-    stride_rule=divide     0.83   0.93   0.43
-
-(``neuronav run plume-tracking --backend kinematic --trials 30 --set start_heading_deg=H
---set stride_rule=R``.) With the defaults (±45°, mod), 60 s: MuJoCo 26/30 (median time 17.9 s),
-PyBullet 17/30 (18.6 s); seeds 0–9 (``neuronav compare plume-tracking --backends
-kinematic,mujoco,pybullet --trials 10``): kinematic 9/10, MuJoCo 9/10, PyBullet 6/10, and with
-``--set odour=off`` 0/10 on each. The paper's example reached the source in about 26 s.
+The world is an 8 × 4 m arena (x in [0, 8] m, y in [−2, 2] m) with a Farrell filament plume
+(:mod:`neuronav.senses.plume`): a source at ``(source_x_m, 0)`` in a wind of mean ``(wind_mps, 0)`` m/s,
+run for ``warmup_s`` before the trial. The ant starts at ``x = start_x_m``, within ``±start_lateral_m``
+of the plume's axis, heading within ``±start_heading_deg`` of upwind. Once per gait cycle (0.64 s) the
+brain reads ``odour`` and ``wind`` at the antenna tips and ``heading`` and steers by eq. 3.11
+(:class:`neuronav.brains.plume_tracking.PlumeController`; ``stride_rule`` picks the stride's reading);
+``odour=off`` zeroes its odour input (the control). Each trial's seed seeds the plume, the start and
+the search turns.
 
 Metrics (per trial)
 -------------------
-- ``success``: the ant's root or either antenna tip came within ``success_radius_m`` (default
-  0.5 m) of the source in the ground plane. The ant is ×100 scale, about 1 m from antenna tips to
-  gaster, so 0.5 m is about half a body length: its head is at the source.
-- ``time_to_source_s``: simulated time of arrival (NaN when the ant did not arrive: optional).
-- ``odour_fraction``: the fraction of samples (every 0.064 s) in which either antenna tip smelled
-  odour above the threshold, whatever the brain was given.
-- ``closest_distance_m``, ``final_x_m``, ``orient_fraction`` (the share of gait cycles the brain
-  spent orienting), ``trial_time_s``, ``real_time_factor``.
+- ``success``: the root or an antenna tip came within ``success_radius_m`` of the source (ground plane).
+- ``time_to_source_s``: simulated time of arrival (NaN when the ant did not arrive).
+- ``odour_fraction``: the share of samples (every 0.064 s) with odour above the threshold at either tip.
+- ``closest_distance_m``, ``final_x_m``, ``orient_fraction`` (the share of gait cycles spent
+  orienting), ``trial_time_s``, ``real_time_factor``.
 
 Logs (``timeseries.h5``): every 0.064 s the time, position, heading, odour and wind at both tips;
 every gait cycle the brain's branch, turn and stride; at each trial's end the plume (a raster of
 the arena and the live puffs).
+
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -57,14 +32,16 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.brains.plume_tracking import ORIENT, PlumeController, wrap_rad
+from neuronav.angles import wrap_rad
+from neuronav.brains.plume_tracking import ORIENT, PlumeController
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.engine.video import VideoRecorder
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.trials import stack_padded
-from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios import EVERY_BACKEND, settings
+from neuronav.scenarios.aggregation import finished_trials, finite_median_of, mean_of, success_rate, summarise
 from neuronav.scenarios.trial_loop import VIDEO_EVERY, trials_one_by_one
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.senses.chemistry import OdourScene
@@ -96,8 +73,7 @@ class PlumeTrackingConfig:
     success_radius_m: float = field(0.5, "success: the root or an antenna tip comes this close to the source (m)",
                                     min_exclusive=0.0, max=3.0)
     timeout_s: float = field(60.0, "a trial gives up after this long (s)", min_exclusive=0.0, max=3600.0)
-    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
-                              min=1e-4, max=0.008)
+    timestep_s: float = settings.timestep_field()
 
     def cross_check(self) -> None:
         if self.start_x_m - self.success_radius_m - 1.0 <= self.source_x_m:
@@ -255,13 +231,10 @@ class PlumeTracking(Scenario):
     def aggregate(self, trials: list[dict], config: PlumeTrackingConfig) -> dict:
         """Over the finished trials: the fraction that reached the source, the median time of those
         that did, and the mean share of time in odour."""
-        rows = [t for t in trials if t.get("status", "ok") == "ok"]
-        if not rows:
-            return {}
-        times = [t["time_to_source_s"] for t in rows if np.isfinite(t["time_to_source_s"])]
-        return {"success_rate": float(np.mean([bool(t["success"]) for t in rows])),
-                "median_time_to_source_s": float(np.median(times)) if times else float("nan"),
-                "mean_odour_fraction": float(np.mean([t["odour_fraction"] for t in rows]))}
+        rows = finished_trials(trials)
+        return summarise(rows, {"success_rate": success_rate,
+                                "median_time_to_source_s": finite_median_of("time_to_source_s"),
+                                "mean_odour_fraction": mean_of("odour_fraction")}) if rows else {}
 
     def run(self, config: PlumeTrackingConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:

@@ -1,51 +1,28 @@
 """Route following by visual familiarity: a mushroom body learns a route's views, then steers the ant along it.
 
-After Ardin et al. 2016, Baddeley et al. 2012 and Kodzhabashev & Mangan 2015 (``docs/parameters.md`` §9).
 Each trial grows a seeded forest about a fixed meandering route (:mod:`neuronav.scenarios.tools.mb_familiarity`:
-a sine of 3 m amplitude and 20 m wavelength starting at the origin, ``route_m`` long).
+a sine of 3 m amplitude and 20 m wavelength from the origin, ``route_m`` long).
 
-1. **Training**: the ant walks the route under guidance (pure pursuit of the route point 1 m ahead
-   of the nearest one) and, ``views_per_cycle`` times per gait cycle (0.64 s), stores its panoramic
-   view in the mushroom body (:func:`neuronav.brains.mushroom_body.mushroom_body`, panorama code, learning on).
-2. **Test**: the ant is put back at the route's start (displaced ``release_offset_m`` to the right
-   of it for a catchment test), facing the route's first heading, and only the mushroom body
-   steers, once per gait cycle, by ``strategy``:
+1. **Training**: the ant walks the route under guidance (pure pursuit of the route point 1 m ahead of
+   the nearest one) and, ``views_per_cycle`` times per gait cycle (0.64 s), stores its panoramic view
+   in the mushroom body (:func:`neuronav.brains.mushroom_body.mushroom_body`, panorama code, learning on),
+   turned to face its last cycle's travel when ``travel_aligned_views`` is on.
+2. **Test**: the ant is put back at the route's start (``release_offset_m`` to its right, plus
+   ``release_jitter_m``), facing the route's first heading, and only the mushroom body steers, once per
+   gait cycle, by ``strategy``: ``scan`` judges the panorama rolled to headings within ±``scan_deg`` in
+   ``scan_step_deg`` steps and turns toward the least novel, θ = clip(−offset / ``scan_full_turn_deg``,
+   −1, 1) (θ > 0 left); ``klinokinesis`` turns alternately left and right by θ = ±``klinokinesis_max_turn``
+   · min(1, ``klinokinesis_gain`` · novelty / active KCs); stride 20° in both. Settings left at 0 take
+   the body's own values (:func:`body_steering`).
 
-   - ``scan``: the panorama is judged at headings within ±``scan_deg`` in ``scan_step_deg`` (10°)
-     steps (the view turned on the spot is the panorama rolled by whole columns); the ant turns
-     toward the least novel one: turn θ = clip(−offset / ``scan_full_turn_deg``, −1, 1)
-     (θ > 0 turns left), stride 20°;
-   - ``klinokinesis``: the ant turns alternately left and right by θ = ±0.6 · min(1, 8 · novelty /
-     active KCs) (``klinokinesis_max_turn``, ``klinokinesis_gain``), stride 20°: straight where the
-     view is familiar, zig-zagging where it is novel. The widest turn stays below ±0.75, where
-     differential stride turns the ant on the spot and it stops making way (gain 2 with turns up to
-     ±1: 0/10, 52 % of checkpoints on the kinematic unicycle).
-
-The scan's gain and views per stride are the body's own where the settings leave them at 0
-(:func:`body_steering`): 30° and one view on the kinematic unicycle, 45° and four views averaged on
-the physics ants, whose heading sways within a stride and overshoots at the unicycle's gain.
-``travel_aligned_views`` (on) stores each training view turned to face the way the ant moved over
-its last gait cycle: the walking ant crabs toward the inside of a turn (MuJoCo: 7.6-8.2° at θ = ±0.2,
-PyBullet 10.1-13.0°; ``python -m neuronav.scenarios.tools.turn_response``), so body-aligned views taken in a bend
-face off the path, and a test ant that holds that heading without turning walks off the route.
+With ``forest_seed`` ≥ 0 the trials share one forest and route, tested as one batch on kinematic. Eyes:
+the ant's panoramic camera, ray cast at one ray per pixel on kinematic, rendered on the physics backends.
 
 Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came
 within ``reach_m`` of, the mean and maximum distance of the test path from the route, success (the
-last checkpoint reached), the views stored. The kinematic backend's eyes are the ant's panoramic
-camera at one ray per pixel; the physics backends render the ant's own camera.
+last checkpoint reached), the views stored.
 
-Measured with the defaults (2026-11-26; README "route-following" has the commands): seeds 1-4,
-``neuronav compare``: kinematic 4/4, MuJoCo 4/4, PyBullet 3/4 (98 % of checkpoints); seeds 5-10:
-MuJoCo 6/6, PyBullet 5/6. Kinematic, seeds 1-10: scan 9/10 reach the end, 99 % of checkpoints, mean
-distance 0.20 m; klinokinesis 4/10, 87 %; scan released 0.5 m right: 9/10, 67 %; 1 m right or left:
-1/10 and 0/10, 2 %. Klinokinesis on MuJoCo (seeds 1-3): 0/3, 63 %; on PyBullet (1-2): 1/2, 75 %. The slow tests of
-``tests/unit/test_route_following.py`` keep the kinematic scan and klinokinesis numbers. With the
-unicycle's settings on the physics ants (``--set travel_aligned_views=false --set
-scan_full_turn_deg=30 --set test_views_per_cycle=1``): MuJoCo 4/4, PyBullet 0/4 (50-70 %).
-Batched (``neuronav run route-following --trials 1000 --seed 1 --set forest_seed=1 --set
-release_jitter_m=0.2``, one shared forest): 846/1000 reach the end, 92 % of checkpoints, mean
-distance 0.34 m; 513-522 s for the 1000 agents on a shared 2-core machine (re-run with the
-travel-aligned views on: the same numbers).
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -56,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from neuronav import registry
+from neuronav.angles import wrap_rad
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.brains.mushroom_body import (
     PANORAMA_COLUMNS,
@@ -68,7 +46,7 @@ from neuronav.brains.mushroom_body import (
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks
 from neuronav.runs.scenario import Scenario, ScenarioResult
-from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.tools.mb_familiarity import SPACING_M, forest_world, panoramas, route
 from neuronav.scenarios.trial_loop import pack_cycle_logs
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
@@ -97,8 +75,7 @@ class RouteFollowingConfig:
     checkpoint_every_m: float = field(1.0, "route checkpoints this far apart (m)", min=0.1, max=10.0)
     reach_m: float = field(0.5, "a checkpoint is reached within this distance (m)", min_exclusive=0.0, max=5.0)
     landscape: bool = field(True, "kinematic backend: map the first trial's novelty on a grid about the route")
-    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
-                              min=1e-4, max=0.008)
+    timestep_s: float = settings.timestep_field()
     scan_full_turn_deg: float = field(0.0, "scan: the least novel heading this far off (or more) turns at θ = ±1; "
                                       "smaller offsets turn proportionally less (deg); 0: the body's own (30 on the "
                                       "kinematic unicycle, 45 on the physics ants)", min=0.0, max=180.0)
@@ -132,11 +109,6 @@ def body_steering(config: RouteFollowingConfig, backend: str) -> RouteFollowingC
     """The settings with the scan gain and test views per cycle left at 0 replaced by the body's own."""
     own = UNICYCLE_STEERING if backend == "kinematic" else PHYSICS_ANT_STEERING
     return replace(config, **{key: value for key, value in own.items() if not getattr(config, key)})
-
-
-def wrap_rad(angle):
-    """Angles wrapped to [-π, π)."""
-    return (np.asarray(angle, float) + np.pi) % (2.0 * np.pi) - np.pi
 
 
 def make_route_engine(backend_name: str, timestep_s: float):

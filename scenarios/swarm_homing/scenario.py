@@ -1,37 +1,27 @@
 """``swarm-homing``: many ants in one world, each with its own CX, forage from scattered starts and home.
 
-The embodied homing protocol (paper §2.3, :mod:`neuronav.scenarios.path_integration.embodied`) for a swarm: ``ants``
-ants share one world, each with its own Stone et al. 2017 CX (one circuit compiled with
-``batch=ants``, ant j's noise seeded by its trial seed), reading its own body's heading and
-displacement once per gait cycle (0.64 s) and steering through the locomotion command (eqs.
-3.6-3.7). Ant j starts at its home, a point of a sunflower spiral around the origin
-(:func:`home_positions`: neighbours about ``spacing_m`` apart), facing a random heading; it forages
-by a smooth random walk of turn commands for ``outbound_s``, then the CX walks it home. An ant
-within ``nest_radius_m`` of its home after the outbound phase stops (turn 0, stride 0); the swarm
-runs until every ant is home or ``homing_timeout_s`` has passed.
+The embodied homing protocol (:mod:`neuronav.scenarios.path_integration.embodied`) for a swarm: ``ants``
+ants share one world, each with its own Stone et al. 2017 CX (one circuit compiled with ``batch=ants``,
+ant j's noise seeded by its trial seed), reading its body's heading and displacement once per gait cycle
+(0.64 s) and steering through the locomotion command (eqs. 3.6-3.7). Ant j starts at its home on a
+sunflower spiral (:func:`home_positions`, neighbours ``spacing_m`` apart), forages by a random walk of
+turn commands for ``outbound_s``, then the CX walks it home; an ant within ``nest_radius_m`` of home
+stops, and the swarm runs until all are home or ``homing_timeout_s`` has passed. Bodies: unicycle point
+agents on ``kinematic``; desert ants walked by their own FK tripod in one world on ``mujoco``
+(:class:`neuronav.backends.mujoco.swarm.MujocoSwarm`, at most 31) and ``pybullet``
+(:class:`neuronav.backends.pybullet.swarm.PybulletSwarm`), where they collide.
 
-Bodies: on ``kinematic`` each ant is a unicycle point agent (they pass through each other; the
-default 1000 ants), on ``mujoco`` and ``pybullet`` each ant is the desert ant walked by its own
-FK tripod gait in one model (:class:`neuronav.backends.mujoco.swarm.MujocoSwarm`, at most 31 ants;
-:class:`neuronav.backends.pybullet.swarm.PybulletSwarm`), where the ants collide with each other:
-``ant_contact_s`` is how long an ant touched another.
+Rows are ants: trial i (seed s = seed + i) is ant ``s mod ants`` of swarm ``s // ants``; a swarm follows
+from its index and the settings alone, so a row re-run alone, in any chunk or batch, is the same.
+``swarm_position_m`` holds the first trial's whole swarm, drawn by ``swarm_trajectories.png``.
 
-Trials and rows
----------------
-A run's rows are ants: trial i (seed s = seed + i) is ant ``s mod ants`` of swarm ``s // ants``,
-and a swarm's every number follows from its index and the settings alone, so any trial re-run
-alone, in any chunk or batch, gives the same row. ``--trials N --set ants=N`` (seed 0) gives one
-swarm with one ``trials.csv`` row per ant; fewer trials simulate the whole swarm all the same and
-report the first rows. Each chunk of a run (``--chunk-size``, workers) simulates its swarms again:
-the rows do not change, the time does; one chunk (the default with one worker) simulates each once.
-``swarm_position_m`` holds the trajectories of the first trial's whole swarm, which
-``swarm_trajectories.png`` draws.
-
-Metrics per ant: ``success`` (came within ``nest_radius_m`` of home after the outbound phase),
+Metrics per ant: ``success`` (within ``nest_radius_m`` of home after the outbound phase),
 ``homing_time_s`` (NaN if never), ``closest_distance_m``, ``home_distance_m`` (at the turn back),
-``straightness`` (as in embodied homing), ``decode_error_deg`` (the CPU4 home vector's direction at
-the turn back against the true one), ``ant_contact_s``, ``ant`` and ``swarm``; timing:
+``straightness``, ``decode_error_deg`` (the CPU4 home vector's direction at the turn back against the
+true one), ``ant_contact_s`` (time touching another ant), ``ant``, ``swarm``; timing:
 ``ant_seconds_per_wall_s`` (ants x simulated seconds / wall seconds of the swarm's run).
+
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -43,12 +33,14 @@ from pathlib import Path
 import numpy as np
 
 from neuronav import registry
+from neuronav.angles import angle_difference_rad
 from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import field
 from neuronav.engine.loop import integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs import sweep
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.scenarios import settings
 from neuronav.spec.world import Ground, PointAgents, World
 
 CYCLE_S = 0.64  # one tripod gait cycle: the brain's period
@@ -74,18 +66,16 @@ class SwarmHomingConfig:
 
     ants: int = field(1000, "ants in one world (mujoco: at most 31)", min=1, max=100_000)
     spacing_m: float = field(3.0, "distance between neighbouring homes (m)", min_exclusive=0.0, max=100.0)
-    outbound_s: float = field(32.0, "foraging time (s)", min_exclusive=0.0, max=3600.0)
-    homing_timeout_s: float = field(90.0, "homing gives up after this long (s)", min_exclusive=0.0, max=3600.0)
-    nest_radius_m: float = field(0.67, "an ant is home within this distance of its home (m)",
-                                 min_exclusive=0.0, max=100.0)
-    k_pi: float = field(5.0, "turn = k_PI (sum CPU1 left - sum CPU1 right) (eq. 3.6)", min_exclusive=0.0,
-                        max=1000.0)
-    noise: float = field(0.0008, "CX rate noise (the paper's code)", min=0.0, max=1.0)
-    memory_gain: float = field(0.04, "CPU4 gain per gait cycle (the paper's code)", min_exclusive=0.0, max=1.0)
-    memory_leak: float = field(0.125, "CPU4 leak factor k (memory loses h*k per step)", min=0.0, max=1.0)
-    foraging_turn_std: float = field(0.35, "std of the random turn command per gait cycle (clipped to [-1, 1])",
-                                     min=0.0, max=10.0)
-    foraging_stride_deg: float = field(15.0, "hip swing while foraging (deg)", min=0.0, max=40.0)
+    outbound_s: float = settings.outbound_field()
+    homing_timeout_s: float = settings.homing_timeout_field()
+    nest_radius_m: float = settings.nest_radius_field("an ant is home within this distance of its home (m)")
+    k_pi: float = settings.homing_gain_field()
+    noise: float = settings.cx_noise_field()
+    memory_gain: float = settings.cpu4_gain_field()
+    memory_leak: float = settings.cpu4_leak_field()
+    foraging_turn_std: float = settings.foraging_turn_field("std of the random turn command per gait cycle "
+                                                            "(clipped to [-1, 1])")
+    foraging_stride_deg: float = settings.foraging_stride_field()
     timestep_s: float = field(0.002, "physics step (s), a whole fraction of the 8 ms control step",
                               min=1e-4, max=0.008)
 
@@ -235,7 +225,7 @@ def ant_metrics(log: dict, ant: int, swarm: int, config: SwarmHomingConfig) -> d
         "closest_distance_m": float(min(log["closest"][ant], homing.min())),
         "home_distance_m": float(distance[turnback]),
         "straightness": float((distance[turnback] - homing.min()) / walked) if walked > 0 else float("nan"),
-        "decode_error_deg": float(np.degrees(abs(np.angle(np.exp(1j * (decoded[0] - true_home)))))),
+        "decode_error_deg": float(np.degrees(abs(angle_difference_rad(decoded[0], true_home)))),
         "ant_contact_s": float(log["contact_s"][ant]),
         "ant_seconds_per_wall_s": float(n * log["end_s"] / log["wall_s"]) if log["wall_s"] > 0 else float("nan"),
     }

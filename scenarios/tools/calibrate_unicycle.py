@@ -1,13 +1,13 @@
-"""Measure the kinematic backend's unicycle table from the physics gait.
+"""Measure the desert ant's unicycle table from the physics gait.
 
 Walks the desert ant with the FK tripod gait on flat ground for every (turn, stride) on a grid and
 records its forward speed and turn rate; writes the table the kinematic backend's ``unicycle``
-mode interpolates.
+mode interpolates (body data: :mod:`neuronav.bodies.desert_ant.unicycle`).
 
 By default the table goes to ``unicycle_<backend>.json`` in the current folder (or ``--out PATH``);
-replacing the table shipped in the package (``backends/data/unicycle_<backend>.json``) takes
-``--write-package-table``. Where it will go is decided, and refused if unusable, before the long
-calibration starts.
+replacing the table shipped with the body (``bodies/desert_ant/unicycle_<backend>.json``; the ant walks
+by the ``mujoco`` one) takes ``--write-package-table``. Where it will go is decided, and refused if
+unusable, before the long calibration starts.
 
 Usage::
 
@@ -25,13 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
+from neuronav.bodies.desert_ant.unicycle import DATA_DIR, table_path
 from neuronav.config import apply_overrides
 from neuronav.runs.rundir import write_atomic
 from neuronav.scenarios.locomotion.scenario import LocomotionConfig, run_trial
 
 TURNS = np.linspace(-1.0, 1.0, 9)
 STRIDES_DEG = np.array([0.0, 5.0, 10.0, 15.0, 20.0, 25.0])
-DATA_DIR = Path(__file__).resolve().parents[2] / "backends" / "data"
 
 
 def measure(backend: str, duration_s: float, seed: int = 0) -> dict:
@@ -65,12 +65,12 @@ def output_path(argv: list[str] | None = None) -> tuple[argparse.Namespace, Path
     where = parser.add_mutually_exclusive_group()
     where.add_argument("--out", type=Path, help="where to write the table (default: ./unicycle_BACKEND.json)")
     where.add_argument("--write-package-table", action="store_true",
-                       help="replace the table shipped in the package (backends/data/unicycle_BACKEND.json)")
+                       help="replace the table shipped with the body (bodies/desert_ant/unicycle_BACKEND.json)")
     args = parser.parse_args(argv)
     if not (args.duration > 0):
         parser.error(f"--duration must be positive, got {args.duration}")
     if args.write_package_table:
-        return args, DATA_DIR / f"unicycle_{args.backend}.json"
+        return args, table_path(args.backend)
     out = args.out if args.out is not None else Path(f"unicycle_{args.backend}.json")
     if str(args.out) == "" or out.is_dir():
         parser.error(f"--out {str(out)!r} must be a file path")

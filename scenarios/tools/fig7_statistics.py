@@ -12,6 +12,8 @@ Usage::
 
     python -m neuronav.scenarios.tools.fig7_statistics [--runs 40] [--trials 1000]
         [--set dtype=float64 --set noise_method=gaussian]
+
+Results: README.md in this folder.
 """
 
 from __future__ import annotations

@@ -1,35 +1,25 @@
-"""Mushroom-body familiarity measured on ray-cast forest views: the rotational familiarity function
-and the capacity (``docs/parameters.md`` §9; Ardin et al. 2016, Baddeley et al. 2012).
+"""Mushroom-body familiarity measured on ray-cast forest views: rotational familiarity and capacity.
 
 Views are the desert ant's panoramic camera (72 x 72, the whole sphere; one ray per pixel here)
 rendered by the kinematic backend's ray caster in a seeded forest, at points of a meandering route
 (a sine of 3 m amplitude and 20 m wavelength, views every ``SPACING_M`` along it, the heading along
-the route). The PN code is the down-sampled panorama (:func:`neuronav.brains.mushroom_body.panorama_code`,
-36 x 9 blocks of 10°): it turns with the viewer, so familiarity depends on heading. Turning on the
-spot is taken as rolling the panorama by whole columns (5°; the eye sits 8 mm ahead of the turning
-axis, ignored).
+the route); ``route-following`` uses the same route and forest. The PN code is the down-sampled
+panorama (:func:`neuronav.brains.mushroom_body.panorama_code`, 36 x 9 blocks of 10°): it turns with
+the viewer. Turning on the spot is rolling the panorama by whole columns (5°; the eye sits 8 mm ahead
+of the turning axis, ignored).
 
 Measurements:
 
 - **Rotational familiarity**: the first ``views`` route views are stored (one step each, learning
-  on); at the midpoints between stored views (points not stored) the novelty is read at 72
-  headings; the heading of least novelty must lie within ±15° of the route's heading
-  (the issue's criterion: at >= 90 % of the positions).
+  on); at the midpoints between stored views the novelty is read at 72 headings; the heading of least
+  novelty should lie within ±15° of the route's heading (at >= 90 % of the positions).
 - **Capacity**: 10, 100 and 1000 views stored; on-route test views (midpoints, route heading)
   against off-route views (random points 5–25 m from the route, random headings); the
-  discrimination is the probability that an off-route view is more novel than an on-route one
-  (the area under the ROC curve, ties counted half).
+  discrimination is the area under the ROC curve (ties counted half).
 
-Run ``python -m neuronav.scenarios.tools.mb_familiarity`` (prints the numbers, writes ``mb_capacity.png`` and
-``mb_rotational.png`` into ``--out``); ``tests/unit/test_mushroom_body.py`` keeps them true
-(its slow tests run the full measurements). Measured with the defaults (forest seed 1, 4000 KCs,
-KC wiring seed 0, 100 test points):
-
-- rotational familiarity, 100 views stored (10 m of route): the least novel heading lies within
-  ±15° of the route's at 99 % of the midpoints (median offset 0°);
-- capacity: 10 / 100 / 1000 views stored: on-route median novelty 0 / 1 / 0 active KCs with
-  intact weights, off-route 101 / 67 / 16; discrimination (AUC) 1.000 / 1.000 / 0.980; KC→MBON
-  weights at 0: 4.5 / 20.8 / 58.5 %.
+Run ``python -m neuronav.scenarios.tools.mb_familiarity [--views 100] [--tests 100] [--seed 1] [--out DIR]``:
+prints the numbers, writes ``mb_rotational.png`` and ``mb_capacity.png`` into ``--out``.
+``tests/unit/test_mushroom_body.py`` keeps the numbers true. Results: README.md in this folder.
 """
 
 from __future__ import annotations

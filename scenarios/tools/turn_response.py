@@ -3,13 +3,10 @@
 The tripod gait turns by differential stride (I2Bot Table 2): one side's sweep shrinks. A legged body
 turning that way does not walk along its own axis: over a gait cycle its path (the chord from the
 cycle's start to its end) points several degrees off its mean heading — it walks crabwise, toward the
-inside of the turn. How much, and how much it turns per cycle, depend on the physics engine's contacts.
-Route following by stored views is sensitive to both (:mod:`neuronav.scenarios.route_following.scenario`): a view stored
-while turning faces off the path, and a test ant that keeps that heading without turning walks off it.
-
-:mod:`neuronav.scenarios.tools.calibrate_unicycle` measures turn rate and speed over a (θ, stride) grid through the
-locomotion scenario, for the kinematic backend's table; this module adds the crab angle, on the bodies
-route following drives (:func:`neuronav.scenarios.visual_setup.make_engine`, the unicycle included).
+inside of the turn. Route following by stored views is sensitive to that
+(:mod:`neuronav.scenarios.route_following.scenario`). :mod:`neuronav.scenarios.tools.calibrate_unicycle`
+measures turn rate and speed only; this module adds the crab angle, on the bodies route following
+drives (:func:`neuronav.scenarios.visual_setup.make_engine`, the unicycle included).
 
 For each backend and each turn command θ (stride 20°, flat ground, 8 gait cycles; the first 3 left
 out), prints the heading change per cycle (deg, + clockwise, i.e. to the right) and the crab angle
@@ -17,8 +14,10 @@ out), prints the heading change per cycle (deg, + clockwise, i.e. to the right) 
 
 Usage::
 
-    python -m neuronav.scenarios.tools.turn_response [--backends mujoco,pybullet,kinematic] \
-        [--turns=-0.3,-0.1,0,0.1,0.3]
+    python -m neuronav.scenarios.tools.turn_response [--backends mujoco,pybullet,kinematic]
+        [--turns=-0.3,-0.2,-0.1,0,0.1,0.2,0.3]
+
+Results: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -28,6 +27,7 @@ import argparse
 import numpy as np
 
 from neuronav import registry
+from neuronav.angles import angle_difference_rad
 from neuronav.engine.loop import AgentLoop, Clocks, Hook
 from neuronav.errors import NeuronavError
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
@@ -68,7 +68,7 @@ def turn_response(backend: str, turn: float, timestep_s: float = 0.002) -> tuple
         start, end = cycle * per_cycle - 1, (cycle + 1) * per_cycle - 1
         chord = position[end] - position[start]
         chord_rad = np.arctan2(chord[0], chord[1])  # clockwise from +y, as the heading
-        crabs.append(np.angle(np.exp(1j * (heading[start:end].mean() - chord_rad))))
+        crabs.append(angle_difference_rad(heading[start:end].mean(), chord_rad))
     rate = (heading[-1] - heading[SETTLE_CYCLES * per_cycle - 1]) / (CYCLES - SETTLE_CYCLES)
     return float(np.degrees(rate)), float(np.degrees(np.mean(crabs)))
 

@@ -13,8 +13,12 @@ and steers toward it through CPU1:
 ``eye`` picks the left eye, the right one, both, or ``cycle`` (trial seed mod 3: left, right,
 both — one run shows all three). Start headings as the paper's (I2Bot §3.3.4; docs/parameters.md §7): the landmark
 0–90° to the left for the left eye, 0–90° to the right for the right eye, within ±45° for both.
-A monocular ant keeps the landmark where its one eye looks (30° to that side), so its path bows
-to the other side; the binocular ant keeps it ahead.
+
+Metrics per trial: ``success`` (within ``success_radius_m`` of the landmark), ``time_to_landmark_s``,
+``closest_distance_m``, the signed ``lateral_offset_m`` (largest) and ``mean_lateral_offset_m`` from the
+start–landmark line (+ = left), ``path_ratio``; per eye mode the median time, success and offset.
+
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -30,7 +34,8 @@ from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
-from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios import EVERY_BACKEND, settings
+from neuronav.scenarios.aggregation import finite_median_of, mean_of, per_condition, success_rate
 from neuronav.scenarios.path_integration.embodied import steering_command
 from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
@@ -54,10 +59,8 @@ class VisualBeaconConfig:
     k_vb: float = field(0.1, "turn = k_vb (sum CPU1 left - sum CPU1 right)", min_exclusive=0.0, max=100.0)
     success_radius_m: float = field(3.0, "success: the body comes this close to the landmark's axis (m)",
                                     min_exclusive=0.0, max=50.0)
-    timeout_s: float = field(120.0, "a trial gives up after this long (s): at least one gait cycle, one look",
-                             min=CYCLE_S, max=3600.0)
-    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
-                              min=1e-4, max=0.008)
+    timeout_s: float = settings.trial_timeout_field(120.0, "look")
+    timestep_s: float = settings.timestep_field()
 
     def cross_check(self) -> None:
         if self.success_radius_m >= self.landmark_distance_m:
@@ -184,16 +187,10 @@ class VisualBeacon(Scenario):
     def aggregate(self, trials: list[dict], config: VisualBeaconConfig) -> dict:
         """Per eye mode (among the finished trials): the median time to the landmark of those that
         reached it, the fraction that did, and the mean signed lateral offset (+ = left)."""
-        result = {}
-        for k, mode in enumerate(EYE_MODES):
-            rows = [t for t in trials if t.get("status", "ok") == "ok" and t.get("eye_mode") == k]
-            if not rows:
-                continue
-            times = [t["time_to_landmark_s"] for t in rows if np.isfinite(t["time_to_landmark_s"])]
-            result[f"median_time_{mode}_s"] = float(np.median(times)) if times else float("nan")
-            result[f"success_{mode}"] = float(np.mean([bool(t["success"]) for t in rows]))
-            result[f"lateral_offset_{mode}_m"] = float(np.mean([t["lateral_offset_m"] for t in rows]))
-        return result
+        return per_condition(trials, "eye_mode", {
+            "median_time_{}_s": finite_median_of("time_to_landmark_s"), "success_{}": success_rate,
+            "lateral_offset_{}_m": mean_of("lateral_offset_m"),
+        }, labels=dict(enumerate(EYE_MODES)))
 
     def run(self, config: VisualBeaconConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:

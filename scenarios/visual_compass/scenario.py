@@ -13,6 +13,12 @@ adds ``incremental_rad`` every gait cycle, ``rotation=jump`` jumps to a random a
 every ``jump_every_s`` (the last jump a whole interval before the end, so each can be
 recovered). Turning the scene counter-clockwise by α moves the stored direction from heading h₀ to
 h₀ − α (headings clockwise from +y): the error is the ant's heading minus that.
+
+Metrics per trial: ``mean_error_deg`` (after the first gait cycle), ``final_error_deg``, ``jumps``,
+``recovered_fraction``, ``mean_recovery_s`` and ``max_recovery_s`` (within ``recovered_deg``);
+``success``: mean error within ``recovered_deg`` (incremental) or every jump recovered (jump).
+
+Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
@@ -22,11 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
+from neuronav.angles import wrap_rad
 from neuronav.brains.vision import ZernikeBasis, compass_command
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.runs.scenario import Scenario, ScenarioResult
-from neuronav.scenarios import EVERY_BACKEND
+from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import compass_scene
@@ -47,13 +54,7 @@ class VisualCompassConfig:
                                  min=0.0, max=45.0)
     recovered_deg: float = field(10.0, "a jump is recovered once the heading error is within this (deg)",
                                  min_exclusive=0.0, max=90.0)
-    timestep_s: float = field(0.002, "physics step of the body (s); the kinematic unicycle steps every 8 ms",
-                              min=1e-4, max=0.008)
-
-
-def wrap_rad(angle):
-    """Angles wrapped to [-π, π)."""
-    return (np.asarray(angle, float) + np.pi) % (2.0 * np.pi) - np.pi
+    timestep_s: float = settings.timestep_field()
 
 
 class SceneRotation(Hook):

@@ -1,15 +1,18 @@
-"""The unicycle calibration writes the package's table only when asked to, and checks where it
-writes before the long measurement starts."""
+"""The unicycle calibration writes the package's table (the desert ant's, in its body folder) only when
+asked to, and checks where it writes before the long measurement starts."""
 
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 import neuronav.scenarios.tools.calibrate_unicycle as calibrate
+from neuronav.bodies.desert_ant.unicycle import table_path
 
-SHIPPED = calibrate.DATA_DIR / "unicycle_mujoco.json"
+ROOT = Path(__file__).resolve().parents[2]
+SHIPPED = table_path("mujoco")
 
 
 def run_module(*args, cwd):
@@ -45,7 +48,7 @@ def test_writing_the_package_table_needs_the_flag(tmp_path, fake_measure):
     assert exit_info.value.code == 2 and fake_measure == []  # refused before measuring
     assert SHIPPED.read_bytes() == shipped
     args, out = calibrate.output_path(["--write-package-table", "--backend", "pybullet"])
-    assert out == calibrate.DATA_DIR / "unicycle_pybullet.json" and args.backend == "pybullet"
+    assert out == ROOT / "bodies" / "desert_ant" / "unicycle_pybullet.json" and args.backend == "pybullet"
 
 
 @pytest.mark.parametrize("args, message", [
@@ -55,7 +58,7 @@ def test_writing_the_package_table_needs_the_flag(tmp_path, fake_measure):
 ])
 def test_bad_arguments_exit_2_at_once(tmp_path, args, message):
     shipped = SHIPPED.read_bytes()
-    result = run_module(*args, cwd=calibrate.DATA_DIR.parents[1])
+    result = run_module(*args, cwd=ROOT)
     assert result.returncode == 2 and message in result.stderr, result.stderr
     assert "turn" not in result.stdout  # no measurement started
     assert SHIPPED.read_bytes() == shipped

@@ -1,14 +1,16 @@
-"""The unicycle table shipped with the kinematic backend is what ``neuronav.scenarios.tools.calibrate_unicycle``
-measures on MuJoCo today: the whole table is walked again (45 points of 3 s, about 10 s here) and
-must match to 1e-9 (it regenerated bit for bit when this test was written)."""
+"""The desert ant's unicycle table (its body data, walked by the kinematic backend) is what
+``neuronav.scenarios.tools.calibrate_unicycle`` measures on MuJoCo today: the whole table is walked again
+(45 points of 3 s, about 10 s here) and must match to 1e-9 (it regenerated bit for bit when this test was
+written)."""
 
 import json
 
 import numpy as np
 
 import neuronav.scenarios.tools.calibrate_unicycle as calibrate
+from neuronav.bodies.desert_ant.unicycle import table_path
 
-SHIPPED = json.loads((calibrate.DATA_DIR / "unicycle_mujoco.json").read_text())
+SHIPPED = json.loads(table_path("mujoco").read_text())
 
 
 def test_shipped_table_has_the_calibration_grid():

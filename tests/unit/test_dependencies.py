@@ -21,10 +21,9 @@ ALLOWED = {
     "backends": {"neuronav"},
     "scenarios": {"neuronav", "brains", "bodies"},
 }
-# Scenarios reach engines by name through the registry (``registry.load("backend" | "swarm_backend",
-# name)``). Still importing a backend, until the calibration is body data and the composer environment
-# is reached through the registered dm_control backend (issue 21):
-STILL_IMPORT_BACKENDS = {"scenarios/envs/tasks.py", "scenarios/envs/dm_env_tasks.py"}
+# Scenarios reach engines only by name through the registry (``registry.load("backend" | "swarm_backend",
+# name)``; the dm_control composer environments through the registered backend's ``composer_environment``),
+# and the kinematic unicycle's calibration is body data: no scenario imports ``backends`` (issue 21).
 PROJECT = set(ALLOWED)
 ENGINES = {"mujoco", "dm_control", "pybullet", "pybullet_data"}
 
@@ -57,8 +56,7 @@ def test_import_direction(package):
     assert files, f"package {package} has no modules"
     for path in files:
         modules = imported_modules(path)
-        allowed = ALLOWED[package] | ({"backends"} if str(path.relative_to(ROOT)) in STILL_IMPORT_BACKENDS else set())
-        wrong = (modules & PROJECT) - allowed - {package}
+        wrong = (modules & PROJECT) - ALLOWED[package] - {package}
         assert not wrong, f"{path.relative_to(ROOT)} imports {sorted(wrong)} against the dependency arrow"
         if package != "backends":
             assert not modules & ENGINES, f"{path.relative_to(ROOT)} imports a physics engine outside backends/"
@@ -66,7 +64,7 @@ def test_import_direction(package):
 
 # The core's rooms, each allowed to import the rooms listed (and itself).
 CORE_ALLOWED = {
-    "base": set(),  # neuronav/errors.py, config.py, registry.py
+    "base": set(),  # neuronav/errors.py, config.py, registry.py, angles.py
     "spec": {"base"},
     "circuits": {"base", "spec"},
     "senses": {"base", "spec"},
@@ -102,7 +100,7 @@ def imported_core_rooms(path: Path) -> set[str]:
 def test_the_core_is_in_rooms():
     """Every core module sits in a room (or is one of the base modules)."""
     loose = {p.name for p in (ROOT / "neuronav").glob("*.py")} - PACKAGE_ROOT
-    assert loose == {"errors.py", "config.py", "registry.py"}
+    assert loose == {"errors.py", "config.py", "registry.py", "angles.py"}
     assert {p.name for p in (ROOT / "neuronav").iterdir() if p.is_dir() and p.name != "__pycache__"} == \
         set(CORE_ALLOWED) - {"base"}
 
@@ -166,9 +164,3 @@ def test_no_top_level_module_of_the_old_names_is_installed(tmp_path, name):
             f"u.find_spec('neuronav.{name}') is not None)")
     done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, check=True)
     assert done.stdout.split() == ["True", "True"], done.stdout + done.stderr
-
-
-def test_the_exceptions_still_import_a_backend():
-    """An exception that no longer imports a backend is dropped from the list, so it cannot return."""
-    for name in sorted(STILL_IMPORT_BACKENDS):
-        assert "backends" in imported_modules(ROOT / name), f"{name} no longer imports a backend: drop it"

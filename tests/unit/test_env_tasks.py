@@ -118,3 +118,28 @@ def test_read_state_drops_the_batch_dimension():
     assert set(state) == {"position", "heading", "velocity"}
     np.testing.assert_array_equal(state["position"], [1.0, 2.0])
     assert state["heading"].shape == (1,)
+
+
+# Which of its scenario's settings each task's goal (x, y) m, success radius, time limit and physics step are
+# (the module doc's table): a key, or a number.
+TASK_SETTINGS = {
+    "homing": ((0.0, 0.0), "nest_radius_m", "homing_timeout_s", "embodied_timestep_s"),
+    "beacon": ((0.0, "landmark_distance_m"), "success_radius_m", "timeout_s", "timestep_s"),
+    "plume": (("source_x_m", 0.0), "success_radius_m", "timeout_s", "timestep_s"),
+}
+
+
+@pytest.mark.parametrize("name", list(TASKS))
+def test_goal_radius_limit_and_step_are_read_from_the_scenarios_settings(name):
+    """Each task's numbers follow the setting they come from (set with --set keys), never a default of its own."""
+    goal_keys, radius_key, limit_key, step_key = TASK_SETTINGS[name]
+    keys = [k for k in (*goal_keys, radius_key, limit_key, step_key) if isinstance(k, str)]
+    defaults = make_task(name).config
+    # Distinct values (a swapped key would show), each in range: 1.1, 1.2, ... times its default.
+    settings = {key: round(getattr(defaults, key) * (1.1 + 0.1 * i), 6) for i, key in enumerate(keys)}
+    assert len(set(settings.values())) == len(settings)
+    task = make_task(name, **settings)
+    np.testing.assert_array_equal(task.goal_m, [settings[k] if isinstance(k, str) else k for k in goal_keys])
+    assert task.success_radius_m == settings[radius_key]
+    assert task.time_limit_s == settings[limit_key]
+    assert task.physics_timestep_s == settings[step_key]

@@ -3,10 +3,11 @@
 import numpy as np
 import pytest
 
-from neuronav import PortError
-from neuronav.backends.kinematic import KinematicBackend, geometric_calibration
+from neuronav import PortError, registry
+from neuronav.backends.kinematic import KinematicBackend, default_calibration, geometric_calibration
 from neuronav.engine.backend import Backend
-from neuronav.errors import ConfigError, SimulationError
+from neuronav.errors import ConfigError, RegistryError, SimulationError
+from neuronav.spec.unicycle import load_calibration
 from neuronav.spec.world import PointAgents, World
 
 
@@ -91,8 +92,6 @@ def test_apply_force_pushes_one_agent():
 def test_measured_calibration_round_trip_and_bad_files(tmp_path):
     import json
 
-    from neuronav.backends.kinematic import load_calibration
-
     table = {"source": "test", "turn": [-1, 0, 1], "stride_rad": [0.0, 0.5],
              "speed_m_s": [[0, 0.1], [0, 0.4], [0, 0.1]], "turn_rate_rad_s": [[0, 1], [0, 0], [0, -1]]}
     path = tmp_path / "table.json"
@@ -122,3 +121,52 @@ def test_the_shipped_table_is_measured_on_mujoco_and_has_the_gait_shape():
     assert abs(speed[0]) < 0.1 * speed[straight] and abs(speed[-1]) < 0.1 * speed[straight]  # on the spot
     assert rate[0] > 0.5 and rate[-1] < -0.5  # turn > 0 turns left: the clockwise heading falls
     assert abs(rate[straight]) < 0.15 * abs(rate[-1])
+
+
+def test_the_default_calibration_is_the_desert_ants_reached_by_name():
+    """The backend walks by the body data registered as ``desert_ant`` (its folder's table), found through the
+    registry; a body with no registered table gets the geometric one, and is told so."""
+    registered = registry.load("unicycle_calibration", "desert_ant")()
+    calibration = KinematicBackend().calibration
+    for name in ("turn", "stride_rad", "speed_m_s", "turn_rate_rad_s"):
+        np.testing.assert_array_equal(getattr(calibration, name), getattr(registered, name))
+    assert calibration.source == registered.source
+    with pytest.warns(RuntimeWarning, match="no unicycle calibration is registered for body 'no_such_body'"):
+        assert default_calibration("no_such_body").source == geometric_calibration().source
+
+
+def test_a_registered_calibration_that_cannot_load_is_an_error_not_the_geometric_table(monkeypatch):
+    def broken(kind, name):
+        raise RegistryError(f"{kind} {name!r} is not installed")
+
+    monkeypatch.setattr(registry, "load", broken)
+    with pytest.raises(RegistryError, match="'desert_ant' is not installed"):
+        default_calibration("desert_ant")
+
+
+@pytest.mark.parametrize("body", registry.names("unicycle_calibration"))
+def test_every_registered_calibration_is_a_usable_table(body):
+    """Each registered table covers turn [-1, 1] on increasing grids, finite, standing still at zero stride."""
+    calibration = registry.load("unicycle_calibration", body)()
+    turn, stride = calibration.turn, calibration.stride_rad
+    assert turn[0] == -1.0 and turn[-1] == 1.0 and np.all(np.diff(turn) > 0)
+    assert stride[0] == 0.0 and np.all(np.diff(stride) > 0)
+    for table in (calibration.speed_m_s, calibration.turn_rate_rad_s):
+        assert table.shape == (turn.size, stride.size) and np.isfinite(table).all()
+        np.testing.assert_array_equal(table[:, 0], 0.0)
+
+
+def test_rates_clip_the_commands_and_do_not_depend_on_the_batch():
+    calibration = default_calibration()
+    top = calibration.stride_rad[-1]
+    speed, rate = calibration.rates([2.0, -3.0, 0.3], [9.0, -1.0, 0.2])
+    clipped = calibration.rates([1.0, -1.0, 0.3], [top, 0.0, 0.2])
+    np.testing.assert_array_equal(speed, clipped[0])
+    np.testing.assert_array_equal(rate, clipped[1])
+    assert speed[1] == 0.0 and rate[1] == 0.0  # no stride, no motion
+    alone = [calibration.rates(0.3, 0.2)[i][0] for i in (0, 1)]
+    assert [speed[2], rate[2]] == alone
+    # Bilinear between the grid's nodes: halfway in stride is the mean of the two columns at a grid turn.
+    j, i = 2, calibration.turn.searchsorted(0.5)
+    middle = (calibration.stride_rad[j] + calibration.stride_rad[j + 1]) / 2
+    np.testing.assert_allclose(calibration.rates(0.5, middle)[0], calibration.speed_m_s[i, j:j + 2].mean(), atol=1e-12)
