@@ -30,6 +30,7 @@ from neuronav.runs.rundir import (
     write_run_directory,
 )
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import run_statistics
 from neuronav.runs.sweep_figures import METRICS_FIGURE, metrics_figure
 from neuronav.runs.trials import leading_series, merge_timeseries
 
@@ -91,6 +92,7 @@ class Assembler:
         folder.mkdir(parents=True, exist_ok=True)
         figure_paths, extra = self._figures(result, point, folder)
         compute_s = sum(m.get("compute_s", 0.0) for m in metas)
+        extra["statistics"] = self._statistics(rows, point.config)
         extra.update({
             **({"grid": point.labels} if point.labels else {}),
             "compute_time_s": compute_s, "chunks": len(parts), "parts": names,
@@ -106,6 +108,14 @@ class Assembler:
         )
         summary["_rows"] = rows
         return summary
+
+    def _statistics(self, rows: list[dict], config: Any) -> dict:
+        """The point's statistics block (:mod:`neuronav.runs.summary_statistics`), seeded by the run's seed."""
+        try:
+            spec = self.scenario.statistics(config)
+        except Exception as error:  # noqa: BLE001 - a scenario's bug costs its statistics, not its results
+            return {"note": f"the scenario's statistics() failed: {task_failure(error)}"}
+        return run_statistics(rows, spec, seed=self.seed, timing=tuple(self.scenario.timing_metrics))
 
     def _unchanged(self, point: GridPoint, names: list[str]) -> dict | None:
         folder = self.point_folder(point)

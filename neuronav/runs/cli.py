@@ -34,9 +34,9 @@ import sys
 from pathlib import Path
 
 from neuronav import registry
-from neuronav.runs import interrupts
 from neuronav.config import describe
 from neuronav.errors import ConfigError, NeuronavError
+from neuronav.runs import interrupts
 from neuronav.runs.executors import sigint_held
 from neuronav.runs.figure_process import figure_process
 from neuronav.runs.rundir import check_out_dir, claim_out_dir, write_atomic

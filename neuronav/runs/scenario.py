@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from neuronav.runs.summary_statistics import Statistics
+
 
 @dataclass
 class ScenarioResult:
@@ -97,6 +99,12 @@ class Scenario(ABC):
     def smoke_config(self) -> dict[str, Any]:
         """Overrides that make a very short run, for conformance tests."""
         return {}
+
+    def statistics(self, config: Any) -> Statistics:
+        """What the summary's ``statistics`` block compares: the per-trial condition column, the metrics,
+        the heading columns (see :class:`~neuronav.runs.summary_statistics.Statistics`). The default:
+        one group, every numeric metric."""
+        return Statistics()
 
     def leading_series(self, config: Any, backend: str) -> dict[str, int]:
         """The time series kept for the run's first k trials only (name -> k), e.g. neural activity

@@ -5,8 +5,10 @@ grid): :func:`plan` checks everything knowable from the settings and writes noth
 :meth:`RunPlan.run` claims the run folder, runs the missing chunks and assembles the results. The
 pieces live in their own modules, each importing only those below it::
 
-    neuronav.runs.runner -> neuronav.runs.sweep -> neuronav.runs.assembly -> neuronav.runs.executors -> neuronav.runs.trials
-                                      -> neuronav.runs.grid, neuronav.runs.sweep_figures, neuronav.runs.rundir
+    runner -> sweep -> assembly -> executors -> trials
+                    -> grid, sweep_figures, rundir
+
+(all in :mod:`neuronav.runs`)
 
 Tasks
     The trials of one grid point are cut into chunks of consecutive trials; a chunk is one task
@@ -58,9 +60,9 @@ from typing import Any
 import numpy as np
 
 from neuronav import registry
-from neuronav.runs.assembly import Assembler, first_failure
 from neuronav.config import build_config, load_config_file, parse_overrides
 from neuronav.errors import ConfigError, NeuronavError
+from neuronav.runs.assembly import Assembler, first_failure
 from neuronav.runs.executors import (  # noqa: F401 - chunk planning is part of this module's interface
     MAX_WORKERS,
     ChunkOutcome,
