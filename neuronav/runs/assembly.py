@@ -117,6 +117,23 @@ class Assembler:
             return {"note": f"the scenario's statistics() failed: {task_failure(error)}"}
         return run_statistics(rows, spec, seed=self.seed, timing=tuple(self.scenario.timing_metrics))
 
+    def _between_points(self, points: list[GridPoint], rows: list[dict], keys: list[str]) -> dict:
+        """The grid points compared, each against the first (the sweep's rows grouped by their grid
+        values; the metrics the scenario compares within a run)."""
+        if len(points) < 2 or not rows:
+            return {}
+        label = {tuple(str(p.labels[k]) for k in keys): p.name for p in points}
+        # The grid's own columns are settings, not measurements.
+        grouped = [{k: v for k, v in row.items() if k not in keys}
+                   | {"grid_point": label[tuple(str(row[k]) for k in keys)]} for row in rows]
+        try:
+            spec = self.scenario.statistics(points[0].config)
+        except Exception as error:  # noqa: BLE001 - a scenario's bug costs its statistics, not its results
+            return {"note": f"the scenario's statistics() failed: {task_failure(error)}"}
+        spec = dataclasses.replace(spec, condition="grid_point", reference=points[0].name,
+                                   metrics=tuple(m for m in spec.metrics if m not in keys))
+        return run_statistics(grouped, spec, seed=self.seed, timing=tuple(self.scenario.timing_metrics))
+
     def _unchanged(self, point: GridPoint, names: list[str]) -> dict | None:
         folder = self.point_folder(point)
         existing = folder / "summary.json"
@@ -202,6 +219,7 @@ class Assembler:
                 sys.stderr.write(f"neuronav: warning: the sweep's metric figure failed: {task_failure(error)}\n")
         failed = sum(e["failed_trials"] for e in entries)
         first = next((f"{e['dir']} {e['first_error']}" for e in entries if e["first_error"]), "")
+        between = self._between_points(points, all_rows, keys)
         summary = {
             "scenario": self.name, "backend": self.backend, "seed": self.seed, "trials": self.trials,
             "grid": settings["grid"], "config": settings["config"], "points": entries,
@@ -210,6 +228,7 @@ class Assembler:
             "compute_time_s": sum(e["compute_time_s"] or 0.0 for e in entries),
             "versions": package_versions(), "git_revision": git_revision(), "command": self.command,
             "figures": [Path(f).name for f in figures], "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+            "statistics": between,
         }
         write_atomic(self.out / "summary.json", json.dumps(summary, indent=2, default=json_default) + "\n")
         return summary | {"out_dir": str(self.out)}

@@ -246,11 +246,36 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     write_atomic(out / "compare.csv", "\n".join(",".join(_cell(r[c]) for c in columns)
                                                 for r in [dict(zip(columns, columns)), *rows]) + "\n")
     _compare_figure(rows, metrics, out / "compare.png")
+    _compare_statistics(args.scenario, plans, summaries, out / "compare.json")
     print("\n".join(lines))
     print(f"comparison: {out / 'compare.md'}")
     failed = sum(s["failed_trials"] for s in summaries.values())
     first = next((f"{b} {s['first_error']}" for b, s in summaries.items() if s.get("first_error")), "")
     return _failures(failed, sum(s["trials"] for s in summaries.values()), first)
+
+
+def _compare_statistics(scenario_name: str, plans: list, summaries: dict[str, dict], path: Path) -> None:
+    """compare.json: each backend's statistics block, whether the backends agree on the direction of
+    every effect, and a Kruskal-Wallis test of the backends' values per condition and metric."""
+    import json
+
+    from neuronav.runs.summary_statistics import across_backends, agreement
+
+    scenario = load_scenario(scenario_name)
+    blocks = {backend: s.get("statistics", {}) for backend, s in summaries.items()}
+    try:
+        spec = scenario.statistics(plans[0].points[0].config)
+        between = across_backends({p.backend: p.rows for p in plans}, spec, timing=tuple(scenario.timing_metrics))
+    except Exception as error:  # noqa: BLE001 - a scenario's bug costs the comparison's tests, not the runs
+        between = {"note": f"not computed: {type(error).__name__}: {error}"}
+    document = {"scenario": scenario_name, "backends": list(summaries), "statistics": blocks,
+                "agreement": agreement(blocks), "across_backends": between}
+    write_atomic(path, json.dumps(document, indent=2, default=_json_number) + "\n")
+
+
+def _json_number(value):
+    """numpy numbers in a JSON document as Python numbers."""
+    return value.item() if hasattr(value, "item") else str(value)
 
 
 def _cell(value) -> str:

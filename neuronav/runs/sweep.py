@@ -147,6 +147,7 @@ class RunPlan:
     is_sweep: bool
     summaries: dict[int, dict] = field(default_factory=dict)
     remaining: dict[int, int] = field(default_factory=dict)
+    rows: list[dict] = field(default_factory=list)  # a run's per-trial rows, once it has run (not a sweep's)
 
     @property
     def kind(self) -> str:
@@ -191,7 +192,7 @@ class RunPlan:
                 self.summaries[point.index] = assembler.assemble(point)
         if not self.is_sweep:
             summary = self.summaries[0]
-            summary.pop("_rows", None)
+            self.rows = summary.pop("_rows", None) or []
             return summary | {"out_dir": str(self.out), "resumed_trials": total - to_run}
         return assembler.assemble_sweep(self.points, self.summaries, self.settings, to_run)
 

@@ -1,4 +1,5 @@
-"""The sweep's metric figure: every numeric metric (mean ± std over finished trials) against the grid."""
+"""The sweep's metric figure: every numeric metric against the grid, as the finished trials' values (points),
+their mean and its seeded 95 % bootstrap interval (error bar), with n per grid point in each panel's title."""
 
 from __future__ import annotations
 
@@ -35,10 +36,25 @@ def _x_axis(rows: list[dict], x_key: str) -> tuple[list, list[float], bool]:
     return x_labels, (x_values if numeric else [float(i) for i in range(len(x_labels))]), numeric
 
 
-def _mean_std(ok: list[dict], metric: str, match) -> tuple[float, float]:
+def _values(ok: list[dict], metric: str, match) -> np.ndarray:
     values = np.array([float(r[metric]) for r in ok if match(r) and isinstance(r.get(metric), (int, float))], float)
-    values = values[np.isfinite(values)]
-    return (float(values.mean()), float(values.std())) if values.size else (np.nan, np.nan)
+    return values[np.isfinite(values)]
+
+
+def _mean_interval(values: np.ndarray) -> tuple[float, float, float]:
+    """The mean and its 95 % percentile-bootstrap interval (seeded: the figure is the same every time);
+    the mean alone (no bar) for fewer than two values."""
+    if values.size == 0:
+        return np.nan, np.nan, np.nan
+    mean = float(values.mean())
+    if values.size < 2:
+        return mean, mean, mean
+    from neuronav.runs.stats import describe
+    from neuronav.runs.summary_statistics import resamples_for
+
+    block = describe(values, seed=0, n_resamples=resamples_for(values.size))
+    low, high = block["mean_ci"]
+    return mean, low, high
 
 
 def build_metrics_figure(rows: list[dict], keys: list[str]) -> Any:
@@ -65,15 +81,25 @@ def build_metrics_figure(rows: list[dict], keys: list[str]) -> Any:
     fig, axes = plt.subplots(lines, columns, figsize=(4.2 * columns, 3.0 * lines), squeeze=False)
     spread = 0.0 if numeric or len(series) < 2 else min(0.3, 0.6 / len(series))
     for ax, metric in zip(axes.flat, metrics):
+        counts: set[int] = set()
         for s, combination in enumerate(series):
-            stats = [_mean_std(ok, metric, lambda r, x=x, c=combination: r[x_key] == x
+            samples = [_values(ok, metric, lambda r, x=x, c=combination: r[x_key] == x
                                and tuple(r[k] for k in others) == c) for x in x_labels]
-            means, stds = [m for m, _ in stats], [d for _, d in stats]
+            stats = [_mean_interval(v) for v in samples]
+            means = np.array([m for m, _, _ in stats])
+            below = np.nan_to_num(means - np.array([low for _, low, _ in stats]))
+            above = np.nan_to_num(np.array([high for _, _, high in stats]) - means)
             offset = (s - (len(series) - 1) / 2) * spread
             name = ", ".join(f"{k}={v}" for k, v in zip(others, combination)) or None
-            ax.errorbar([p + offset for p in positions], means, yerr=stds, marker="o", ms=4, capsize=2,
-                        lw=1, linestyle="-" if numeric else "none", label=name)
-        ax.set_title(metric, fontsize=9)
+            bars = ax.errorbar([p + offset for p in positions], means, yerr=[below, above], marker="o", ms=4,
+                               capsize=2, lw=1, linestyle="-" if numeric else "none", label=name)
+            colour = bars.lines[0].get_color()
+            for position, values in zip(positions, samples):  # every trial, beside its mean
+                ax.scatter(np.full(values.size, position + offset), values, s=6, alpha=0.35, color=colour,
+                           linewidths=0)
+            counts.update(v.size for v in samples)
+        n_text = f"n = {min(counts)}" if len(counts) == 1 else f"n = {min(counts)}–{max(counts)}"
+        ax.set_title(f"{metric} ({n_text}; mean, 95 % CI)", fontsize=8)
         ax.set_xlabel(x_key, fontsize=8)
         ax.set_ylabel(metric, fontsize=8)
         if not numeric:

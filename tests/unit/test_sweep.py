@@ -419,3 +419,25 @@ def test_a_scenarios_check_runs_for_every_grid_point_before_anything_is_written(
     with pytest.raises(ConfigError, match="raise_seed=7 cannot run"):
         run_sweep(Picky(), {"raise_seed": [1, 7]}, trials=2, out_dir=tmp_path / "out", progress=False)
     assert not (tmp_path / "out").exists()
+
+
+def test_sweep_figure_shows_each_trial_the_mean_and_its_bootstrap_interval_with_n():
+    from neuronav.runs.stats import describe
+    from neuronav.runs.summary_statistics import resamples_for
+    from neuronav.runs.sweep_figures import build_metrics_figure
+
+    rows = [{"gait": x, "terrain": "a", "trial": t, "seed": t, "status": "ok", "error": "", "speed": x + v}
+            for x in (0.0, 1.0) for t, v in enumerate([0.0, 0.1, 0.5, 2.0])]
+    fig = build_metrics_figure(rows, ["gait", "terrain"])
+    (panel,) = [ax for ax in fig.axes if ax.axison]
+    assert panel.get_title().startswith("speed (n = 4;")
+    (bars,) = panel.containers
+    low, high = describe([0.0, 0.1, 0.5, 2.0], seed=0, n_resamples=resamples_for(4))["mean_ci"]
+    segment = bars.lines[2][0].get_segments()[0]  # the first point's vertical bar
+    np.testing.assert_allclose([segment[0][1], segment[1][1]], [low, high])
+    assert high - 0.65 != 0.65 - low  # the interval is the bootstrap's, not a symmetric ± spread
+    points = np.concatenate([c.get_offsets() for c in panel.collections if len(c.get_offsets()) == 4])
+    assert sorted(points[:, 1]) == sorted(r["speed"] for r in rows)  # every trial drawn
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
