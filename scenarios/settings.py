@@ -89,3 +89,21 @@ def foraging_turn_field(help: str):
 def foraging_stride_field(protocol: str = ""):
     """``foraging_stride_deg``: the hip swing while foraging (deg)."""
     return field(15.0, _help("hip swing while foraging (deg)", protocol), min=0.0, max=40.0)
+
+
+# -- embodied homing's trial-to-trial variability (with ``variability=on``; see scenarios/variability.py) --
+# Each source is drawn per gait cycle from the trial's own generator (one stream per source), so a
+# path-integration trial and a swarm ant of the same seed read the same noise. Motor noise: path-integration,
+# swarm-homing and locomotion use neuronav.scenarios.motor_noise (turn_noise_sd, stride_noise_fraction);
+# the turn_noise and stride_noise_deg fields below are odour-trail's and plume-tracking's.
+
+def compass_noise_field(protocol: str = ""):
+    """``compass_noise_deg``: std of the Gaussian error on the heading the CX reads each gait cycle (deg)."""
+    return field(3.0, _help("std of the error on the heading the CX reads each gait cycle (deg; variability=on)",
+                            protocol), min=0.0, max=180.0)
+
+
+def odometry_noise_field(protocol: str = ""):
+    """``odometry_noise_fraction``: std of the relative error on the displacement the CX reads each gait cycle."""
+    return field(0.05, _help("std of the relative error on the displacement the CX reads each gait cycle "
+                             "(fraction; variability=on)", protocol), min=0.0, max=1.0)

@@ -23,9 +23,9 @@ VIDEO_EVERY = 8
 
 def run_loop(engine, world, body, gait, clocks: Clocks, steering, *, heading_rad: float, seed: int,
              duration_s: float, until: Callable[[AgentLoop], bool] | None = None, hooks: Sequence[Hook] = (),
-             video_path=None) -> tuple[AgentLoop, np.ndarray, float]:
-    """Load ``world`` and ``body`` into ``engine``, start at the origin facing ``heading_rad``
-    (clockwise from +y) and run for ``duration_s`` or until ``until(loop)``.
+             video_path=None, position_m: tuple[float, float] = (0.0, 0.0)) -> tuple[AgentLoop, np.ndarray, float]:
+    """Load ``world`` and ``body`` into ``engine``, start at ``position_m`` (the origin by default)
+    facing ``heading_rad`` (clockwise from +y) and run for ``duration_s`` or until ``until(loop)``.
 
     Returns
     -------
@@ -40,7 +40,7 @@ def run_loop(engine, world, body, gait, clocks: Clocks, steering, *, heading_rad
         engine.load(world, [body])
         video = VideoRecorder(video_path, "follow", every=VIDEO_EVERY) if video_path is not None else None
         loop = AgentLoop(engine, gait, clocks, steering=steering, hooks=[*hooks, *([video] if video else [])])
-        loop.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - heading_rad)
+        loop.reset(seed=seed, position_m=tuple(position_m), yaw_rad=np.pi / 2 - heading_rad)
         try:
             loop.run(duration_s, until=until)
         finally:

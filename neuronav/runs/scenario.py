@@ -59,6 +59,9 @@ class Scenario(ABC):
     # Per-trial metrics that measure the computer, not the simulation (wall times): they are the
     # only numbers allowed to differ between two runs with the same seed.
     timing_metrics: tuple[str, ...] = ()
+    # Per-trial columns that name a trial's condition (text allowed, e.g. a gait or the cues used),
+    # not measurements: the statistics group by them, the conformance test does not require numbers.
+    condition_columns: tuple[str, ...] = ()
     # Metrics that are undefined (NaN) in some trials by definition (a time to arrive for an agent
     # that never arrives); the conformance test requires every other metric to be finite.
     optional_metrics: tuple[str, ...] = ()

@@ -26,6 +26,7 @@ import numpy as np
 from neuronav.brains.cx import CPU4_LEAK, decode_home_vector, goal_pattern, goal_steering, stone2017
 from neuronav.brains.ring import CUE_AMPLITUDE, N_CELLS, gaussian_cue, ring_attractor, settle
 from neuronav.brains.visual_homing import homing_direction, skyline_view
+from neuronav.scenarios.variability import is_on, trial_generators
 
 CUE_SIGMA_RAD = float(np.radians(90.0))
 TOTAL_AMPLITUDE = 2.0 * CUE_AMPLITUDE
@@ -62,26 +63,81 @@ def weighted_direction(pi_rad, a_pi, vision_rad, a_vision) -> np.ndarray:
                     np.asarray(a_vision) * np.exp(1j * np.asarray(vision_rad)))
 
 
+class CueNoise:
+    """What the brain's senses and the legs add, per agent (agent i seeded by ``seeds[i]``), when
+    ``variability`` is on: compass noise on every heading the brain reads (``heading_noise_deg``), odometer
+    noise scaling each displacement the CX integrates (``odometry_noise``, relative), pixel noise on the
+    panorama (``eye_noise``), and noise on each cycle's turn and stride (``turn_noise``, ``stride_noise_deg``).
+    Each source is its own stream of each trial's seed; with ``variability`` off nothing is drawn or added.
+    """
+
+    SOURCES = ("compass", "odometry", "eye", "motor")
+
+    def __init__(self, config, seeds) -> None:
+        on = is_on(config)
+        self.heading_sd_rad = float(np.radians(config.heading_noise_deg)) if on else 0.0
+        self.odometry_sd = config.odometry_noise if on else 0.0
+        self.eye_sd = config.eye_noise if on else 0.0
+        self.turn_sd = config.turn_noise if on else 0.0
+        self.stride_sd_rad = float(np.radians(config.stride_noise_deg)) if on else 0.0
+        self.generators = {source: trial_generators(seeds, source) for source in self.SOURCES}
+
+    def _normal(self, source: str, shape: tuple[int, ...] = ()) -> np.ndarray:
+        """One standard normal draw of ``shape`` per agent, from each agent's own stream: (N, *shape)."""
+        return np.stack([g.normal(0.0, 1.0, shape) for g in self.generators[source]])
+
+    def compass(self, heading_rad: np.ndarray) -> np.ndarray:
+        """The headings (N,) as the compass reads them."""
+        if not self.heading_sd_rad:
+            return heading_rad
+        return heading_rad + self.heading_sd_rad * self._normal("compass")
+
+    def odometer(self, displacement_m: np.ndarray) -> np.ndarray:
+        """The displacements (N, 2) as the odometer reads them: each scaled by 1 + noise."""
+        if not self.odometry_sd:
+            return displacement_m
+        return displacement_m * (1.0 + self.odometry_sd * self._normal("odometry"))[:, None]
+
+    def eye(self, panorama: np.ndarray) -> np.ndarray:
+        """The panoramas (N, H, W) as the eyes read them."""
+        if not self.eye_sd:
+            return panorama
+        return panorama + self.eye_sd * self._normal("eye", np.shape(panorama)[1:])
+
+    def motor(self, turn: np.ndarray, stride_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The cycle's commands (N,) as the legs carry them out: turn clipped to [-1, 1], stride >= 0."""
+        if not (self.turn_sd or self.stride_sd_rad):
+            return turn, stride_rad
+        draws = self._normal("motor", (2,))
+        return (np.clip(turn + self.turn_sd * draws[:, 0], -1.0, 1.0),
+                np.maximum(stride_rad + self.stride_sd_rad * draws[:, 1], 0.0))
+
+
 class CueBrain:
     """PI + visual homing + ring + CPU1 steering for ``batch`` agents (agent i seeded by ``seeds[i]``).
 
     Parameters
     ----------
     config : CueIntegrationConfig
-        ``cues``, ``pi_full_m``, ``vision_full``, ``k_pi`` and ``band_deg`` are read.
+        ``cues``, ``pi_full_m``, ``vision_full``, ``k_pi``, ``band_deg`` and the noise settings
+        (:class:`CueNoise`) are read.
     snapshots : ndarray, shape (K, R, W)
         Skyline views stored facing the nest.
     seeds : sequence of int
+    cues : sequence of str, optional
+        Each agent's cues (``both``, ``pi`` or ``vision``); default ``config.cues`` for every agent.
     """
 
     LOG_KEYS = ("time_s", "heading_rad", "pi_rad", "pi_length_m", "vision_rad", "certainty", "weight_pi",
                 "bump_rad", "turn", "stride_rad")
 
-    def __init__(self, config, snapshots: np.ndarray, seeds) -> None:
+    def __init__(self, config, snapshots: np.ndarray, seeds, cues=None) -> None:
         self.config = config
         self.snapshots = snapshots
         seeds = [int(s) for s in seeds]
         self.batch = len(seeds)
+        self.cues = np.array([config.cues] * self.batch if cues is None else list(cues), dtype=object)
+        self.noise = CueNoise(config, seeds)
         self.cx = stone2017(noise=CX_NOISE, memory_gain=MEMORY_GAIN, memory_leak=CPU4_LEAK).compile(
             batch=self.batch, seeds=seeds)
         self.ring = ring_attractor().compile(batch=self.batch)
@@ -90,9 +146,14 @@ class CueBrain:
         self.log: dict[str, list] = {k: [] for k in self.LOG_KEYS}
 
     def integrate(self, heading_rad: np.ndarray, displacement_m: np.ndarray) -> None:
-        """One gait cycle of path integration: heading (N,), displacement over the cycle (N, 2) m."""
-        self.cx.step({"heading": np.asarray(heading_rad, float).reshape(-1, 1),
-                      "velocity": np.asarray(displacement_m, float).reshape(-1, 2)})
+        """One gait cycle of path integration: heading (N,), displacement over the cycle (N, 2) m, read
+        through the compass and the odometer."""
+        self._integrate(self.noise.compass(np.asarray(heading_rad, float).reshape(-1)), displacement_m)
+
+    def _integrate(self, sensed_heading_rad: np.ndarray, displacement_m: np.ndarray) -> None:
+        """One gait cycle of path integration from a compass reading (N,) and a true displacement (N, 2) m."""
+        self.cx.step({"heading": np.asarray(sensed_heading_rad, float).reshape(-1, 1),
+                      "velocity": self.noise.odometer(np.asarray(displacement_m, float).reshape(-1, 2))})
 
     def pi_cue(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(home direction, length in metres, reliability) decoded from CPU4."""
@@ -109,28 +170,27 @@ class CueBrain:
     def __call__(self, time_s: float, heading_rad: np.ndarray, position_m: np.ndarray,
                  panorama: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
         """One gait cycle: integrate, combine the cues, steer; returns (turn, stride) arrays (N,)."""
-        heading = np.asarray(heading_rad, float).reshape(-1)
+        true_heading = np.asarray(heading_rad, float).reshape(-1)
+        heading = self.noise.compass(true_heading)  # what the brain reads
         position = np.asarray(position_m, float).reshape(-1, 2)
         if self.last_position is None:
             self.last_position = position.copy()
-        self.integrate(heading, position - self.last_position)
+        self._integrate(heading, position - self.last_position)
         self.last_position = position.copy()
         pi_rad, length_m, r_pi = self.pi_cue()
         if panorama is None:
             vision_rad, certainty, r_vision = np.zeros(self.batch), np.zeros(self.batch), np.zeros(self.batch)
         else:
-            vision_rad, certainty, r_vision = self.vision_cue(panorama, heading)
-        if self.config.cues == "pi":
-            r_vision = np.zeros(self.batch)
-        elif self.config.cues == "vision":
-            r_pi = np.zeros(self.batch)
+            vision_rad, certainty, r_vision = self.vision_cue(self.noise.eye(panorama), heading)
+        r_vision = np.where(self.cues == "pi", 0.0, r_vision)
+        r_pi = np.where(self.cues == "vision", 0.0, r_pi)
         a_pi, a_vision = cue_amplitudes(r_pi, r_vision)
         self.ring.reset()
         bump = settle(self.ring, ring_cues(pi_rad, a_pi, vision_rad, a_vision))
         self.steer.step({"heading": heading[:, None], "goal": goal_pattern(bump)})
-        turn, stride = steering_commands(self.steer.rates("CPU1"), self.config.k_pi)
+        turn, stride = self.noise.motor(*steering_commands(self.steer.rates("CPU1"), self.config.k_pi))
         weight_pi = np.where(a_pi + a_vision > 0, a_pi / np.where(a_pi + a_vision > 0, a_pi + a_vision, 1.0), np.nan)
-        for key, value in (("time_s", np.full(self.batch, time_s)), ("heading_rad", heading), ("pi_rad", pi_rad),
+        for key, value in (("time_s", np.full(self.batch, time_s)), ("heading_rad", true_heading), ("pi_rad", pi_rad),
                            ("pi_length_m", length_m), ("vision_rad", vision_rad), ("certainty", certainty),
                            ("weight_pi", weight_pi), ("bump_rad", bump), ("turn", turn), ("stride_rad", stride)):
             self.log[key].append(np.array(value, float))

@@ -39,10 +39,12 @@ from neuronav.config import field
 from neuronav.engine.loop import Clocks, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.aggregation import per_condition, success_rate
 from neuronav.scenarios.cue_integration.brain import CueBrain, weighted_direction
 from neuronav.scenarios.trial_loop import run_loop
+from neuronav.scenarios.variability import variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
 from neuronav.scenarios.worlds.scenes import forest, vision_appearance
 from neuronav.spec.world import Ground, PointAgents, World
@@ -54,8 +56,9 @@ FOREST_RADII_M = (8.0, 40.0)
 
 @dataclass
 class CueIntegrationConfig:
-    cues: str = field("both", "cues into the ring: both, pi (path integration alone) or vision (views alone)",
-                      choices=CUE_MODES)
+    cues: str = field("both", "cues into the ring: both, pi (path integration alone) or vision (views alone); a "
+                      "comma list (both,pi,vision) is cycled over trials by seed, each cue for a whole cycle of the "
+                      "conflict angles")
     conflict_deg: str = field("0,30,60,90,120,150", "angle between the PI and the visual home directions at "
                               "release (deg, 0–180); a comma list is cycled over trials by seed")
     pi_distance_m: float = field(10.0, "length of the outbound walk the home vector integrates (m)",
@@ -81,9 +84,21 @@ class CueIntegrationConfig:
     timestep_s: float = settings.timestep_field()
     kinematic_supersample: int = field(1, "kinematic batch: rays per pixel side of the panorama (the ant's "
                                        "camera: 4)", min=1, max=4)
+    variability: str = variability_field()
+    heading_noise_deg: float = field(2.0, "variability: Gaussian noise on every heading the brain reads (the "
+                                     "compass), outbound and homing (standard deviation, deg)", min=0.0, max=90.0)
+    odometry_noise: float = field(0.1, "variability: each gait cycle's displacement the CX integrates scaled by "
+                                  "1 + this standard deviation times a Gaussian draw (relative)", min=0.0, max=1.0)
+    eye_noise: float = field(0.02, "variability: Gaussian noise on every pixel of the panorama the brain reads "
+                             "(standard deviation, grey levels 0-1)", min=0.0, max=1.0)
+    turn_noise: float = field(0.03, "variability: Gaussian noise on each gait cycle's turn θ (standard deviation; "
+                              "θ = ±1 turns on the spot)", min=0.0, max=1.0)
+    stride_noise_deg: float = field(1.0, "variability: Gaussian noise on each gait cycle's stride (standard "
+                                    "deviation, deg)", min=0.0, max=10.0)
 
     def cross_check(self) -> None:
         conflicts_deg(self)
+        cue_modes(self)
         if self.nest_radius_m >= self.release_distance_m:
             raise ConfigError(f"nest_radius_m ({self.nest_radius_m:g}) must be < release_distance_m "
                               f"({self.release_distance_m:g}): the ant would succeed where it is released")
@@ -101,24 +116,35 @@ def conflicts_deg(config: CueIntegrationConfig) -> tuple[float, ...]:
     return values
 
 
-def trial_setup(config: CueIntegrationConfig, seed: int) -> dict[str, float]:
-    """Conflict, release bearing, start heading and the side of the conflict of trial ``seed``.
+def cue_modes(config: CueIntegrationConfig) -> tuple[str, ...]:
+    """The cues of ``config.cues`` (one, or a comma list of both, pi, vision)."""
+    values = tuple(v.strip() for v in str(config.cues).split(","))
+    if not values or any(v not in CUE_MODES for v in values):
+        raise ConfigError(f"cues: expected both, pi, vision or a comma list of them, got {config.cues!r}")
+    return values
 
-    Angles in rad, clockwise from +y. The home vector points ``conflict`` clockwise (side +1) or
-    counter-clockwise (side -1) of the nest, at random: a bias of the body to one side (the calibrated
-    unicycle drifts 0.02–0.08 rad/s counter-clockwise at turn 0, as the MuJoCo tripod does) then cancels
-    in the mean instead of looking like a weight.
+
+def trial_setup(config: CueIntegrationConfig, seed: int) -> dict:
+    """Cues, conflict, release bearing, start heading and the side of the conflict of trial ``seed``.
+
+    Angles in rad, clockwise from +y. The conflict cycles over its list by seed; the cues (``cues``) by
+    whole cycles of the conflict list, so that every cue meets every conflict. The home vector points
+    ``conflict`` clockwise (side +1) or counter-clockwise (side -1) of the nest, at random: a bias of the
+    body to one side (the calibrated unicycle drifts 0.02–0.08 rad/s counter-clockwise at turn 0, as the
+    MuJoCo tripod does) then cancels in the mean instead of looking like a weight.
     """
-    conflicts = conflicts_deg(config)
+    conflicts, modes = conflicts_deg(config), cue_modes(config)
     rng = np.random.default_rng([seed, 14])
     bearing = float(rng.uniform(0.0, 2.0 * np.pi))
     heading = float(rng.uniform(-np.pi, np.pi))
     side = 1.0 if rng.random() < 0.5 else -1.0
     nest = float(angle_difference_rad(bearing + np.pi, 0.0))
-    conflict = float(np.radians(conflicts[seed % len(conflicts)]))
-    return {"conflict_rad": conflict, "release_m": config.release_distance_m * np.array([np.sin(bearing),
-            np.cos(bearing)]), "heading_rad": heading, "nest_rad": nest, "side": side,
-            "pi_rad": nest + side * conflict}
+    conflict_deg = conflicts[seed % len(conflicts)]
+    conflict = float(np.radians(conflict_deg))
+    return {"cues": modes[(seed // len(conflicts)) % len(modes)], "conflict_deg": conflict_deg,
+            "conflict_rad": conflict,
+            "release_m": config.release_distance_m * np.array([np.sin(bearing), np.cos(bearing)]),
+            "heading_rad": heading, "nest_rad": nest, "side": side, "pi_rad": nest + side * conflict}
 
 
 def cue_world(config: CueIntegrationConfig) -> World:
@@ -167,7 +193,7 @@ def translated(world: World, offset_m) -> World:
 
 def start_brain(config: CueIntegrationConfig, snapshots: np.ndarray, seeds, setups) -> CueBrain:
     """The brains of trials ``seeds``, their home vectors charged by the outbound walks."""
-    brain = CueBrain(config, snapshots, seeds)
+    brain = CueBrain(config, snapshots, seeds, cues=[s["cues"] for s in setups])
     charge_home_vector(brain, np.array([s["pi_rad"] for s in setups]), config.pi_distance_m)
     return brain
 
@@ -283,8 +309,10 @@ def cue_metrics(config: CueIntegrationConfig, setup: dict, path: np.ndarray, log
                 (("initial", initial), ("pi", pi_cue), ("vision", vision_cue), ("predicted", predicted))}
     return {
         "success": bool(np.isfinite(arrival_s)), "status": "ok", "error": "",
-        "conflict_deg": float(np.degrees(setup["conflict_rad"])),
+        "cues": setup["cues"],
+        "conflict_deg": float(setup["conflict_deg"]),  # as listed (30.0, not 29.999999999999996)
         "initial_heading_deg": relative["initial"],
+        "initial_heading_rad": float(np.radians(relative["initial"])),
         "pi_cue_deg": relative["pi"], "vision_cue_deg": relative["vision"],
         "weight_pi": float(weight_pi), "pi_length_m": float(log["pi_length_m"][0]),
         "vision_certainty": float(log["certainty"][0]),
@@ -309,13 +337,14 @@ class CueIntegration(Scenario):
     default_backend = "kinematic"
     records_video = True
     timing_metrics = ("real_time_factor",)
+    condition_columns = ("cues",)
     # One kinematic batch of 1000 agents takes about 7 min on the 2-core machine (README): bigger runs are
     # cut into batches of at most this many, each written (and resumable) on its own.
     chunk_trials = 1000
     # NaN by definition: the time to the nest of an ant that never arrives; the initial heading (and its
     # errors) of one that never got initial_distance_m from the release point.
-    optional_metrics = ("time_to_nest_s", "initial_heading_deg", "error_to_pi_deg", "error_to_vision_deg",
-                        "error_to_prediction_deg")
+    optional_metrics = ("time_to_nest_s", "initial_heading_deg", "initial_heading_rad", "error_to_pi_deg",
+                        "error_to_vision_deg", "error_to_prediction_deg")
 
     def smoke_config(self) -> dict:
         return {"timeout_s": 1.28, "trees": 6, "snapshots": 4}
@@ -323,6 +352,19 @@ class CueIntegration(Scenario):
     def check(self, config: CueIntegrationConfig, backend: str) -> None:
         if backend != "kinematic":
             integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
+
+    def statistics(self, config: CueIntegrationConfig) -> Statistics:
+        """The condition the run varies: the cues (``cues`` a comma list; against the first listed) or else
+        the conflict angle (against the first listed). Per condition the initial heading (signed, toward the
+        PI cue's side; and as a circular heading), its errors to each cue and to the weighted prediction,
+        the time to the nest and success."""
+        modes, conflicts = cue_modes(config), conflicts_deg(config)
+        by_cues = len(modes) > 1 or len(conflicts) == 1
+        return Statistics(condition="cues" if by_cues else "conflict_deg",
+                          reference=modes[0] if by_cues else conflicts[0],
+                          metrics=("initial_heading_deg", "error_to_pi_deg", "error_to_vision_deg",
+                                   "error_to_prediction_deg", "time_to_nest_s"),
+                          circular=("initial_heading_rad",))
 
     def aggregate(self, trials: list[dict], config: CueIntegrationConfig) -> dict:
         """Per conflict angle: the circular mean initial heading (where any was measured), the mean

@@ -5,13 +5,16 @@ Runs the body on a physics backend with the configured gait (tripod, ripple, wav
 start spot on rough ground, a small random initial yaw). Physics every ``timestep_s`` (2 ms), the gait
 every ``control_dt_s`` (8 ms), ramping up to the full stride over its first cycle.
 
+``gait`` may be a comma list: trial seed s walks gait s mod their count (its row's ``gait``, the
+condition the statistics compare). ``variability=on``: motor noise each gait cycle (:class:`CycleMotorNoise`).
+
 Positions, speeds and heights are those of the body centre (the centre of mass at the rest pose, fixed
 in the thorax frame 0.34 m behind the root). Metrics per trial: ``forward_speed_m_s``,
 ``lateral_drift_m`` (+ = left), ``turn_rate_rad_s`` (counter-clockwise positive), body height mean and
 variance, roll and pitch variance (these five NaN for a start on the wall), ``mean_abs_torque_nm``,
 ``cost_of_transport`` (Σ|τ·q̇|dt over m·g·distance), ``climb_height_m`` (highest centre height above
-the start) and ``climb_final_m`` (at the end), ``gait_us_per_step``, ``real_time_factor`` and ``fell``
-(:func:`fell_over`); ``success`` = not fell.
+the start) and ``climb_final_m`` (at the end), ``gait_us_per_step``, ``real_time_factor``, ``fell``
+(:func:`fell_over`; ``success`` = not fell) and ``gait``.
 
 Wall (``terrain=wall``): a vertical wall faces -x at x = 1 m. ``wall_start=wall`` starts the ant on it,
 head up, its centre ``wall_start_height_m`` up; ``wall_start=floor`` walks it at the wall from the
@@ -38,7 +41,10 @@ from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.engine.video import VideoRecorder
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import PHYSICS_BACKENDS
+from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_noise_field
+from neuronav.scenarios.variability import is_on, variability_field
 from neuronav.spec.body import BodySpec, quat_to_matrix
 from neuronav.spec.world import Ground, World
 
@@ -79,8 +85,8 @@ WALL_PRESS_M = 0.002
 class LocomotionConfig:
     """Settings of the locomotion scenario (defaults: the paper's tripod gait on flat ground)."""
 
-    gait: str = field("tripod", "gait: FK tripod, ripple, wave, or the IK tripod",
-                      choices=("tripod", "ripple", "wave", "ik"))
+    gait: str = field("tripod", "gait: FK tripod, ripple, wave, or the IK tripod (ik); or a comma list of them, "
+                      "walked by trial seed s mod their count (the condition the statistics compare)")
     terrain: str = field("flat", "ground: flat, uneven-1 (2 cm bumps), uneven-2 (5 cm), wall",
                          choices=tuple(TERRAINS))
     adhesion_n: float = field(0.0, "force pressing each touching claw into its surface (N)", min=0.0, max=1000.0)
@@ -102,14 +108,45 @@ class LocomotionConfig:
                                "stance = only those of legs in stance (pads released at lift-off)",
                                choices=ADHESION_RULES)
     wall_posture: bool = field(True, "wall_start=floor: head and gaster up, antennae folded, front legs reach further")
+    variability: str = variability_field()
+    turn_noise_sd: float = turn_noise_field()
+    stride_noise_fraction: float = stride_noise_field()
 
     def __post_init__(self) -> None:
+        gaits(self)
         # Checked here, not only when running, so that a bad pair is a ConfigError (CLI exit 2) up front.
         # (Values outside their own ranges are left to the per-field checks, which name the field.)
         numbers = (self.control_dt_s, self.timestep_s, self.duration_s)
         if (all(isinstance(v, (int, float)) and np.isfinite(v) and v > 0 for v in numbers)
                 and min(self.control_dt_s, self.timestep_s) >= MIN_TIMESTEP_S):
             check_clocks(self)
+
+
+GAITS = ("tripod", "ripple", "wave", "ik")
+
+
+def gaits(config: LocomotionConfig) -> tuple[str, ...]:
+    """The gaits of ``config.gait`` (one, or a comma list of distinct ones).
+
+    Raises
+    ------
+    ConfigError
+        An unknown or repeated gait.
+    """
+    names = tuple(name.strip() for name in str(config.gait).split(","))
+    unknown = [name for name in names if name not in GAITS]
+    if unknown:
+        raise ConfigError(f"gait: {unknown[0]!r} is not one of {', '.join(GAITS)} (one, or a comma list of them); "
+                          f"got {config.gait!r}")
+    if len(set(names)) < len(names):
+        raise ConfigError(f"gait: each gait at most once in the list, got {config.gait!r}")
+    return names
+
+
+def trial_gait(config: LocomotionConfig, seed: int) -> str:
+    """The gait trial seed ``seed`` walks: number ``seed`` mod the count of :func:`gaits`."""
+    names = gaits(config)
+    return names[seed % len(names)]
 
 
 def check_clocks(config: LocomotionConfig) -> None:
@@ -145,6 +182,7 @@ class Locomotion(Scenario):
     default_backend = "mujoco"
     records_video = True
     timing_metrics = ("gait_us_per_step", "real_time_factor")
+    condition_columns = ("gait",)
     # NaN by definition for a body started on the wall (heading, roll and pitch are taken against
     # the floor) and, for cost_of_transport, below 1 mm travelled.
     optional_metrics = ("forward_speed_m_s", "lateral_drift_m", "turn_rate_rad_s", "roll_var_rad2", "pitch_var_rad2",
@@ -153,6 +191,12 @@ class Locomotion(Scenario):
 
     def smoke_config(self) -> dict:
         return {"duration_s": 0.3}
+
+    def statistics(self, config: LocomotionConfig) -> Statistics:
+        """The gaits compared (the rows' ``gait`` column, against the first gait listed): speed, drift,
+        turning, body height and its variance, roll and pitch variance, torque, cost of transport, climb;
+        success is not falling."""
+        return Statistics(condition="gait", reference=gaits(config)[0])
 
     def run(self, config: LocomotionConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
@@ -171,9 +215,10 @@ class Locomotion(Scenario):
         return write_figures(result, config, Path(out_dir))
 
 
-def build_gait(config: LocomotionConfig, body: BodySpec):
-    """The configured gait; on the wall (with ``wall_posture``) holding the climbing posture."""
-    gait = make_gait(config.gait, body)
+def build_gait(config: LocomotionConfig, body: BodySpec, name: str | None = None):
+    """The gait ``name`` (default: the first of ``config.gait``); on the wall (with ``wall_posture``)
+    holding the climbing posture."""
+    gait = make_gait(name or gaits(config)[0], body)
     if config.terrain == "wall" and config.wall_start == "floor" and config.wall_posture:
         gait = PostureGait(gait, WALL_POSTURE_RAD, WALL_OFFSETS_RAD)
     return gait
@@ -267,6 +312,21 @@ def body_centre_m(body: BodySpec) -> np.ndarray:
     return moment / total
 
 
+class CycleMotorNoise(Hook):
+    """``variability=on``: at the start of every gait cycle (``cycle_steps`` control steps) the legs take
+    the configured turn θ and hip swing as the trial's :class:`~neuronav.scenarios.motor_noise.MotorNoise`
+    executes them (``turn_noise_sd``, ``stride_noise_fraction``), for the whole cycle."""
+
+    def __init__(self, config: LocomotionConfig, seed: int, cycle_steps: int) -> None:
+        self.cycle_steps = int(cycle_steps)
+        self.turn, self.stride_rad = float(config.turn), float(np.radians(config.stride_deg))
+        self.motor = MotorNoise(seed, config.turn_noise_sd, config.stride_noise_fraction)
+
+    def before_step(self, loop: AgentLoop) -> None:
+        if loop.control_steps % self.cycle_steps == 0:
+            loop.turn, loop.stride_rad = self.motor(self.turn, self.stride_rad)
+
+
 class LocomotionRecorder(Hook):
     """Records what the locomotion metrics and figures need, once per control step.
 
@@ -337,10 +397,14 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
     # A frame every 4 gait steps (31.25 per second at 8 ms), played in real time.
     camera = VideoRecorder(video_path, "follow", every=4) if video_path is not None else None
     pose = start_pose_kwargs(config, body, world.ground, yaw0, rng)
+    gait_name = trial_gait(config, seed)
+    gait = build_gait(config, body, gait_name)
     hooks = [recorder] + ([StanceAdhesion(body)] if config.adhesion_rule == "stance" else [])
+    if is_on(config):
+        hooks.append(CycleMotorNoise(config, seed, getattr(gait, "gait", gait).cycle_steps))
     with registry.load("backend", backend_name)(timestep_s=config.timestep_s) as engine:
         engine.load(world, [body])
-        loop = AgentLoop(engine, build_gait(config, body), clocks, hooks=hooks + ([camera] if camera else []),
+        loop = AgentLoop(engine, gait, clocks, hooks=hooks + ([camera] if camera else []),
                          turn=config.turn, stride_rad=np.radians(config.stride_deg))
         loop.reset(seed=seed, **pose)
         started = time.perf_counter()
@@ -353,6 +417,7 @@ def run_trial(config: LocomotionConfig, backend_name: str, seed: int,
     recorder.record["ground_m"] = ground_height_m(world.ground, recorder.record["position_m"][:, :2])
     metrics = trial_metrics(recorder.record, config, body.total_mass_kg, recorder.work_j,
                             recorder.torque_sum / max(steps, 1), loop.gait_time_s / max(steps, 1), wall_s)
+    metrics["gait"] = gait_name
     return metrics, recorder.record
 
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from neuronav.runs.plotting import new_figure, save
+from neuronav.runs.stats import describe
 from neuronav.senses.odour import rasterise
 
 MODE_COLOURS = {"fixed": "tab:blue", "moving": "tab:orange"}
@@ -60,7 +61,8 @@ def trajectories_figure(result, config):
 
 
 def completion_figure(result):
-    """Completion (fraction of the trail covered) per antenna mode: every trial and the mean."""
+    """Completion (fraction of the trail covered) per antenna mode: every trial, and the mean with its
+    seeded bootstrap 95 % interval."""
     fig, ax = new_figure((5, 4))
     modes = _modes(result)
     present = [m for m in MODES if m in modes]
@@ -68,9 +70,15 @@ def completion_figure(result):
         values = np.array([t["completion"] for t, m in zip(result.trials, modes) if m == mode])
         jitter = np.linspace(-0.12, 0.12, len(values)) if len(values) > 1 else np.zeros(1)
         ax.plot(k + jitter, values, "o", color=MODE_COLOURS[mode], alpha=0.6, gid=f"completion {mode}")
-        ax.bar(k, values.mean(), width=0.5, color=MODE_COLOURS[mode], alpha=0.3)
+        mean = describe(values, seed=0)
+        low, high = mean["mean_ci"]  # NaN for one trial: no interval drawn
+        error = np.nan_to_num([[mean["mean"] - low], [high - mean["mean"]]])
+        ax.errorbar(k + 0.3, mean["mean"], yerr=error, fmt="D",
+                    color="k", capsize=4, gid=f"mean {mode}", label="mean, 95 % CI" if k == 0 else None)
     ax.set_xticks(range(len(present)), [f"{m}\n(n={modes.count(m)})" for m in present])
     ax.set_ylim(0.0, 1.05)
+    ax.set_xlim(-0.5, len(present) - 0.2)
+    ax.legend(loc="lower right", fontsize=8)
     ax.set_ylabel("completion (fraction of the trail)")
     ax.set_title("completion by antennae")
     return fig

@@ -14,7 +14,12 @@ Metrics per trial: ``success`` (the body centre reached the trail's last ``succe
 length, within ``width / 2 + reach_m`` of the centre line), ``finish_time_s`` (NaN if never),
 ``completion`` (the furthest arc length reached while within that reach, from the start to the end;
 1 on success), ``time_on_trail`` (the fraction of gait cycles with the body centre or an antenna on the
-trail, concentration >= 0.5); per antenna mode their means and the median finish time.
+trail, concentration >= 0.5), ``mean_offset_m`` (the body centre's mean distance from the trail's centre
+line, once per gait cycle and at the end); per antenna mode their means and the median finish time. Each row's
+``antennae_moving`` (0 fixed, 1 moving) is the condition the summary's statistics compare.
+
+Variability (``variability=on``, the default): start jitter (:func:`start_pose`), odour-reading and motor
+noise (:class:`TrailNoise`), each from its own stream of the trial's seed; ``off``: the paper's protocol.
 
 Results, sources and model choices: README.md in this folder.
 """
@@ -32,9 +37,12 @@ from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.aggregation import finite_median_of, mean_of, per_condition, success_rate
+from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_noise_field
 from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
+from neuronav.scenarios.variability import is_on, jitter_start, normal_per_trial, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import vision_appearance
 from neuronav.senses.chemistry import OdourScene
@@ -81,6 +89,15 @@ class OdourTrailConfig:
                            "of the trail (m)", min=0.0, max=3.0)
     timeout_s: float = settings.trial_timeout_field(90.0, "sniff")
     timestep_s: float = settings.timestep_field()
+    variability: str = variability_field()
+    start_position_sd_m: float = field(0.02, "std of the start's offset in x and in y (m; variability=on)",
+                                       min=0.0, max=0.5)
+    start_heading_sd_deg: float = field(5.0, "std of the start heading's offset from along the trail (deg; "
+                                        "variability=on)", min=0.0, max=90.0)
+    odour_noise_sd: float = field(1.0, "std of the error on each antenna's odour reading, per gait cycle "
+                                  "(sensor units, as t_d and t_o; variability=on)", min=0.0, max=1e3)
+    turn_noise_sd: float = turn_noise_field()
+    stride_noise_fraction: float = stride_noise_field()
 
     def controller(self) -> TrailFollowing:
         return TrailFollowing(t_d=self.t_d, t_o=self.t_o, k_d=self.k_d, sensor_scale=self.sensor_scale)
@@ -89,6 +106,35 @@ class OdourTrailConfig:
 def antenna_mode(config: OdourTrailConfig, seed: int) -> str:
     """The antennae trial ``seed`` uses."""
     return ANTENNA_MODES[seed % 2] if config.antennae == "both" else config.antennae
+
+
+def start_pose(config: OdourTrailConfig, seed: int) -> tuple[np.ndarray, float]:
+    """Trial ``seed``'s start: position (x, y) m and heading (clockwise from +y) rad — the origin
+    facing along the trail, moved by the start jitter when ``variability`` is on."""
+    origin = np.zeros(2)
+    if not is_on(config):
+        return origin, START_HEADING_RAD
+    position, heading = jitter_start(trial_generators([seed], "start"), origin[None], np.array([START_HEADING_RAD]),
+                                     config.start_position_sd_m, np.radians(config.start_heading_sd_deg))
+    return position[0], float(heading[0])
+
+
+class TrailNoise:
+    """Trial ``seed``'s sensor and motor noise, one draw per gait cycle from its own streams (none
+    with ``variability=off``): the odour readings (:meth:`odour`), then the command
+    (:class:`neuronav.scenarios.motor_noise.MotorNoise`, :attr:`command`)."""
+
+    def __init__(self, config: OdourTrailConfig, seed: int) -> None:
+        on = is_on(config)
+        self.odour_sd = config.odour_noise_sd / config.sensor_scale if on else 0.0
+        self.odour_rng = trial_generators([seed], "odour")
+        self.command = MotorNoise(seed, config.turn_noise_sd if on else 0.0,
+                                  config.stride_noise_fraction if on else 0.0)
+
+    def odour(self, left: float, right: float) -> tuple[float, float]:
+        """The readings (concentration) with this cycle's errors."""
+        error = normal_per_trial(self.odour_rng, (2,), self.odour_sd)[0]
+        return left + float(error[0]), right + float(error[1])
 
 
 def make_trail(width: str, edge_m: float = 0.02) -> PolylineTrail:
@@ -157,6 +203,7 @@ class TrailBrain:
                  peaks: OdourPeakHook | None = None) -> None:
         self.controller, self.trail, self.peaks = config.controller(), trail, peaks
         self.rng = np.random.default_rng([seed, 12])
+        self.noise = TrailNoise(config, seed)
         self.log: dict[str, list] = {k: [] for k in ("time_s", "position_m", "heading_rad", "odour_L", "odour_R",
                                                      "centre_odour", "turn", "stride_rad")}
 
@@ -164,8 +211,8 @@ class TrailBrain:
         sensed = loop.backend.read(("odour", "position", "heading"))
         odour = sensed["odour"][0, :2, 0]
         peak = self.peaks.take() if self.peaks is not None else None
-        left, right = (float(v) for v in (np.maximum(peak, odour) if peak is not None else odour))
-        turn, stride = self.controller(left, right, self.rng)
+        left, right = self.noise.odour(*(float(v) for v in (np.maximum(peak, odour) if peak is not None else odour)))
+        turn, stride = self.noise.command(*self.controller(left, right, self.rng))
         position = sensed["position"][0]
         centre = float(self.trail.concentration_at(position))
         for key, value in (("time_s", loop.time_s), ("position_m", position), ("heading_rad", sensed["heading"][0, 0]),
@@ -197,9 +244,10 @@ def trail_trial(config: OdourTrailConfig, backend_name: str, seed: int, video_pa
         position = lp.backend.read(("position",))["position"][0]
         return bool(at_trail_end(trail, config, position[None])[0])
 
-    loop, final, wall_s = run_loop(engine, trail_world(trail), body, gait, clocks, brain, heading_rad=START_HEADING_RAD,
+    start_m, heading_rad = start_pose(config, seed)
+    loop, final, wall_s = run_loop(engine, trail_world(trail), body, gait, clocks, brain, heading_rad=heading_rad,
                                    seed=seed, duration_s=config.timeout_s, until=arrived, hooks=hooks,
-                                   video_path=video_path)
+                                   video_path=video_path, position_m=tuple(start_m))
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     log["position_m"] = np.vstack([log["position_m"], final[None]])
     return trail_metrics(log, config, trail, mode, loop.time_s, wall_s), log
@@ -241,6 +289,7 @@ def trail_metrics(log: dict, config: OdourTrailConfig, trail: PolylineTrail, mod
         "finish_time_s": float(trial_time_s) if reached else float("nan"),
         "completion": completion,
         "time_on_trail": float(on.mean()) if on.size else 0.0,
+        "mean_offset_m": float(distance.mean()),
         "trial_time_s": float(trial_time_s),
         "real_time_factor": float(trial_time_s / wall_s) if wall_s > 0 else float("nan"),
     }
@@ -277,6 +326,13 @@ class OdourTrail(Scenario):
             "success_{}": success_rate, "completion_{}": mean_of("completion"),
             "time_on_trail_{}": mean_of("time_on_trail"), "median_finish_{}_s": finite_median_of("finish_time_s"),
         }, labels=dict(enumerate(ANTENNA_MODES)))
+
+    def statistics(self, config: OdourTrailConfig) -> Statistics:
+        """Moving antennae (``antennae_moving`` 1.0) against fixed ones (0.0): finish time, completion,
+        time on the trail and the mean offset from it (Mann-Whitney U), reaching the end (Fisher's exact
+        test)."""
+        return Statistics(condition="antennae_moving", metrics=("finish_time_s", "completion", "time_on_trail",
+                                                                "mean_offset_m"), reference=0.0)
 
     def run(self, config: OdourTrailConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:

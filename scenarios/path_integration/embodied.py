@@ -20,6 +20,13 @@ Metrics per trial: ``success`` (within ``nest_radius_m``), ``homing_time_s``, ``
 ``home_distance_m`` at the turn-back, ``straightness`` of the homing path, ``decode_error_deg`` (home
 vector decoded from CPU4 at the turn-back vs the true one), ``trial_time_s``, ``real_time_factor``.
 
+Variability (``variability=on``, the default): each gait cycle the CX reads the heading with a
+Gaussian error of ``compass_noise_deg`` and the displacement scaled by 1 + N(0, ``odometry_noise_fraction``)
+(:func:`homing_noise`), and the legs execute its command with the motor noise of every walking scenario
+(:class:`neuronav.scenarios.motor_noise.MotorNoise`: ``turn_noise_sd``, ``stride_noise_fraction``); each
+source from the trial's own generator. The start (at the nest, facing a uniform random heading) and the
+foraging walk differ per trial in both settings.
+
 Results, sources and model choices: README.md in this folder.
 """
 
@@ -34,7 +41,9 @@ from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import ScenarioResult
+from neuronav.scenarios.motor_noise import MotorNoise
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
+from neuronav.scenarios.variability import is_on, normal_per_trial, trial_generators
 from neuronav.spec.world import Ground, PointAgents, World
 
 CYCLE_S = 0.64
@@ -49,11 +58,50 @@ def steering_command(cpu1: np.ndarray, k_pi: float) -> tuple[float, float]:
     return theta, float(MIN_STRIDE_RAD + EXTRA_STRIDE_RAD * (1.0 - min(abs(theta), 1.0)))
 
 
-class HomingBrain:
-    """The CX, its sensing and its steering, called by the agent loop once per gait cycle."""
+# The sensor noise sources of embodied homing, each drawn per gait cycle from its own stream of the trial's seed.
+NOISE_SOURCES = ("compass", "odometry")
 
-    def __init__(self, config, seed: int, outbound_s: float) -> None:
+
+def homing_noise(config, seeds, cycles: int) -> dict[str, np.ndarray] | None:
+    """Per-cycle sensor noise of embodied homing for the trials (ants) of ``seeds``, or None with
+    ``variability=off``.
+
+    Returns ``{source: array (len(seeds), cycles)}``: ``compass`` (rad, added to the heading the CX
+    reads) and ``odometry`` (relative: the displacement read is scaled by 1 + it). Row i depends on
+    ``seeds[i]`` alone
+    (:func:`neuronav.scenarios.variability.trial_generators`), so a trial re-run alone, in any chunk,
+    or as a swarm's ant draws the same numbers.
+    """
+    if not is_on(config):
+        return None
+    scales = {"compass": np.radians(config.compass_noise_deg), "odometry": config.odometry_noise_fraction}
+    return {source: normal_per_trial(trial_generators(seeds, source), (cycles,), float(scales[source]))
+            for source in NOISE_SOURCES}
+
+
+def motor_noise(config, seed: int) -> MotorNoise:
+    """The trial's motor noise: the configured sizes with ``variability=on``, none with ``off``."""
+    on = is_on(config)
+    return MotorNoise(seed, config.turn_noise_sd if on else 0.0, config.stride_noise_fraction if on else 0.0)
+
+
+def noise_cycles(duration_s: float) -> int:
+    """Brain calls (gait cycles) a trip of ``duration_s`` can take, with one to spare."""
+    return int(np.ceil(duration_s / CYCLE_S - 1e-9)) + 2
+
+
+class HomingBrain:
+    """The CX, its sensing and its steering, called by the agent loop once per gait cycle.
+
+    ``noise`` (:func:`homing_noise`, one row) adds the cycle's sensor errors to what the CX reads
+    (None: it reads exactly); the command goes through the trial's :func:`motor_noise`.
+    """
+
+    def __init__(self, config, seed: int, outbound_s: float, noise: dict[str, np.ndarray] | None = None) -> None:
         self.config = config
+        self.noise = noise
+        self.motor = motor_noise(config, seed)
+        self.cycle = 0
         self.rng = np.random.default_rng([seed, 2])
         self.cx = stone2017(noise=config.embodied_noise, memory_gain=config.embodied_memory_gain,
                             memory_leak=config.memory_leak).compile(batch=1, seeds=[seed])
@@ -74,7 +122,11 @@ class HomingBrain:
         else:
             fed = sensed["velocity"][0] * CYCLE_S
         self.last_position = position
-        self.cx.step({"heading": np.array([[heading]]), "velocity": fed[None, :]})
+        read = heading
+        if self.noise is not None:
+            read = heading + self.noise["compass"][self.cycle]
+            fed = fed * (1.0 + self.noise["odometry"][self.cycle])
+        self.cx.step({"heading": np.array([[read]]), "velocity": fed[None, :]})
         if loop.time_s < self.outbound_s:
             # Foraging: a smooth random walk of turn commands at the configured stride.
             self.turn = float(np.clip(0.7 * self.turn + self.rng.normal(0.0, self.config.foraging_turn_std),
@@ -84,6 +136,8 @@ class HomingBrain:
             if self.turnback_memory is None:
                 self.turnback_memory = self.cx.memory("CPU4")[0]
             command = steering_command(self.cx.rates("CPU1")[0], self.config.k_pi)
+        command = self.motor(*command)
+        self.cycle += 1
         for key, value in (("time_s", loop.time_s), ("position_m", position), ("heading_rad", heading),
                            ("cpu4", self.cx.memory("CPU4")[0]), ("fed_velocity", fed / CYCLE_S),
                            ("measured_velocity", sensed["velocity"][0]), ("turn", command[0]),
@@ -164,7 +218,8 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
         engine = engine_class(timestep_s=config.embodied_timestep_s)
         body = desert_ant()
         gait, physics_dt = make_gait("tripod", body), config.embodied_timestep_s
-    brain = HomingBrain(config, seed, config.outbound_s)
+    noise = homing_noise(config, [seed], noise_cycles(config.outbound_s + config.homing_timeout_s))
+    brain = HomingBrain(config, seed, config.outbound_s, None if noise is None else {k: v[0] for k, v in noise.items()})
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
 
     def home(lp: AgentLoop) -> bool:

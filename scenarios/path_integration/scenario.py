@@ -29,7 +29,10 @@ from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
+from neuronav.scenarios.motor_noise import stride_noise_field, turn_noise_field
+from neuronav.scenarios.variability import variability_field
 from neuronav.spec.world import PointAgents, World
 
 
@@ -77,6 +80,13 @@ class PathIntegrationConfig:
     foraging_stride_deg: float = settings.foraging_stride_field("i2bot")
     embodied_timestep_s: float = field(0.002, "i2bot: physics step of the body (s)", min_exclusive=0.0,
                                        max=0.008)
+    # Trial-to-trial variability of the i2bot protocol (stone2017's trials differ by their seeded routes and
+    # CX noise, Stone et al. 2017's own protocol, in either setting).
+    variability: str = variability_field()
+    compass_noise_deg: float = settings.compass_noise_field("i2bot")
+    odometry_noise_fraction: float = settings.odometry_noise_field("i2bot")
+    turn_noise_sd: float = turn_noise_field()
+    stride_noise_fraction: float = stride_noise_field()
 
     def cross_check(self) -> None:
         """Rules between settings that hold on every backend (called by :func:`neuronav.config.validate`)."""
@@ -172,6 +182,12 @@ class PathIntegration(Scenario):
             return {}
         mean_mu = mus.mean()
         return {"tortuosity": float(1.0 / (1.0 - mean_mu)) if mean_mu < 1 else float("nan")}
+
+    def statistics(self, config: PathIntegrationConfig) -> Statistics:
+        """One group (the run compares no conditions): success with its Wilson interval and every
+        metric of the protocol's rows (stone2017: closest approach, μ, decode error, homing steps;
+        i2bot: homing time, closest approach, straightness, decode error) with bootstrap intervals."""
+        return Statistics(condition=None)
 
     def compare_overrides(self, backends: list[str]) -> dict:
         """Comparing a physics body with the kinematic one only makes sense under one protocol."""

@@ -10,8 +10,15 @@ from pathlib import Path
 import numpy as np
 
 from neuronav.runs.plotting import new_figure, save
+from neuronav.runs.stats import success_rate
 
 ARENA_X_M, ARENA_Y_M = (0.0, 8.0), (-2.0, 2.0)
+ODOUR_COLOURS = {"on": "tab:green", "off": "tab:grey"}
+
+
+def _odour(trial: dict, config) -> str:
+    """A trial's odour input, on or off (rows written before issue 22 have no ``odour_on`` column: the run's)."""
+    return ("on" if trial["odour_on"] else "off") if "odour_on" in trial else str(config.odour)
 
 
 def write_plume_figures(result, config, out_dir: Path) -> list[Path]:
@@ -23,7 +30,8 @@ def write_plume_figures(result, config, out_dir: Path) -> list[Path]:
 
 
 def plume_paths_figure(result, config):
-    """Trial 0's plume at its end (log concentration, the live puffs as dots) under every trial's path."""
+    """Trial 0's plume at its end (log concentration, the live puffs as dots) under every trial's path
+    (green: reached the source, grey: not; dashed: odour off)."""
     from matplotlib.colors import LogNorm
     from matplotlib.patches import Circle
 
@@ -44,13 +52,16 @@ def plume_paths_figure(result, config):
         path = path[np.isfinite(path[:, 0])]
         colour = "tab:green" if trial["success"] else "tab:grey"
         ax.plot(path[:, 0], path[:, 1], color=colour, lw=1.6 if i == 0 else 0.9, alpha=1.0 if i == 0 else 0.7,
-                gid=f"trial {i}")
+                ls="--" if _odour(trial, config) == "off" else "-", gid=f"trial {i}")
         ax.plot(path[0, 0], path[0, 1], "^", color=colour, ms=5)
     ax.add_patch(Circle((config.source_x_m, 0.0), config.success_radius_m, fill=False, ls="--", color="k",
                         gid="source radius"))
     ax.plot(config.source_x_m, 0.0, "k*", ms=12, label="source")
-    ax.annotate("", xy=(7.6, 1.7), xytext=(6.6, 1.7), arrowprops=dict(arrowstyle="->", lw=1.5))
-    ax.text(7.1, 1.78, f"wind {config.wind_mps:g} m/s", ha="center", fontsize=8)
+    direction = np.radians(getattr(config, "wind_direction_deg", 0.0))
+    tail = np.array([7.1, 1.7]) - 0.5 * np.array([np.cos(direction), np.sin(direction)])
+    ax.annotate("", xy=tuple(tail + np.array([np.cos(direction), np.sin(direction)])), xytext=tuple(tail),
+                arrowprops=dict(arrowstyle="->", lw=1.5))
+    ax.text(7.1, 1.85, f"wind {config.wind_mps:g} m/s", ha="center", fontsize=8)
     ax.set_xlim(min(ARENA_X_M[0], np.nanmin(result.timeseries["position_m"][..., 0]) - 0.3),
                 max(ARENA_X_M[1], np.nanmax(result.timeseries["position_m"][..., 0]) + 0.3))
     ax.set_ylim(min(ARENA_Y_M[0], np.nanmin(result.timeseries["position_m"][..., 1]) - 0.3),
@@ -95,20 +106,31 @@ def senses_figure(result, config):
 
 
 def times_figure(result, config):
-    """Each trial's time to the source (reached) or the time limit (not reached, open circles)."""
+    """Per odour input: each trial's time to the source (filled, with a box over those that arrived) or
+    the time limit (open circles: not reached); under each column n, the arrivals and their rate's
+    Wilson 95 % interval."""
     fig, ax = new_figure((5, 4))
-    times = np.array([t["time_to_source_s"] for t in result.trials], float)
-    reached = np.isfinite(times)
-    x = np.arange(len(times))
-    ax.plot(x[reached], times[reached], "o", color="tab:green", label="reached", gid="reached")
-    ax.plot(x[~reached], np.full((~reached).sum(), config.timeout_s), "o", mfc="none", color="tab:grey",
-            label="time limit (not reached)", gid="not reached")
-    if reached.any():
-        ax.axhline(np.median(times[reached]), color="tab:green", ls="--", lw=1,
-                   label=f"median {np.median(times[reached]):.1f} s")
-    ax.set_xlabel("trial")
+    modes = [_odour(t, config) for t in result.trials]
+    present = [m for m in ("on", "off") if m in modes] or sorted(set(modes))
+    labels = []
+    for k, mode in enumerate(present):
+        times = np.array([t["time_to_source_s"] for t, m in zip(result.trials, modes) if m == mode], float)
+        reached = np.isfinite(times)
+        spread = np.linspace(-0.15, 0.15, len(times)) if len(times) > 1 else np.zeros(len(times))
+        colour = ODOUR_COLOURS.get(mode, "tab:blue")
+        ax.plot(k + spread[reached], times[reached], "o", color=colour, alpha=0.8, gid=f"reached {mode}",
+                label="reached" if k == 0 else None)
+        ax.plot(k + spread[~reached], np.full((~reached).sum(), config.timeout_s), "o", mfc="none",
+                color="tab:grey", gid=f"not reached {mode}", label="time limit (not reached)" if k == 0 else None)
+        if reached.sum() >= 2:
+            ax.boxplot([times[reached]], positions=[k], widths=0.45, showfliers=False)
+        rate = success_rate(int(reached.sum()), len(times))
+        labels.append(f"odour {mode}\nn={len(times)}, reached {rate['successes']}\n"
+                      f"({rate['ci'][0]:.2f}-{rate['ci'][1]:.2f})")
+    ax.set_xticks(range(len(present)), labels, fontsize=8)
+    ax.set_xlim(-0.6, len(present) - 0.4)
     ax.set_ylabel("time to the source (s)")
     ax.set_ylim(0, config.timeout_s * 1.08)
-    ax.set_title(f"odour {config.odour}: {int(reached.sum())}/{len(times)} reached the source")
+    ax.set_title("time to the source (rate's Wilson 95 % interval)", fontsize=9)
     ax.legend(loc="lower right", fontsize=8)
     return fig

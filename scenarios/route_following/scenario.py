@@ -45,10 +45,13 @@ from neuronav.brains.mushroom_body import (
 )
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks
+from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.tools.mb_familiarity import SPACING_M, forest_world, panoramas, route
 from neuronav.scenarios.trial_loop import pack_cycle_logs
+from neuronav.scenarios.variability import is_on, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
 from neuronav.spec.world import PointAgents
 
@@ -56,16 +59,17 @@ STRIDE_RAD = np.radians(20.0)
 LOOKAHEAD_M = 1.0
 COLUMN_DEG = 5.0  # one column of the 72-column panorama
 LOG_KEYS = ("time_s", "heading_rad", "novelty", "turn", "kc_active")
+STRATEGIES = ("scan", "klinokinesis")
 
 
 @dataclass
 class RouteFollowingConfig:
     strategy: str = field("scan", "how the mushroom body steers: scan (turn toward the least novel of several "
-                          "headings) or klinokinesis (zig-zag, wider where the view is novel)",
-                          choices=("scan", "klinokinesis"))
+                          "headings) or klinokinesis (zig-zag, wider where the view is novel); a comma list "
+                          "(scan,klinokinesis) is cycled over trials by seed")
     route_m: float = field(10.0, "length of the trained route (m)", min=2.0, max=100.0)
-    release_offset_m: float = field(0.0, "test release this far right (+) or left (-) of the route's start (m)",
-                                    min=-10.0, max=10.0)
+    release_offset_m: str = field("0", "test release this far right (+) or left (-) of the route's start (m, "
+                                  "-10 to 10); a comma list (0,1) is cycled over trials by seed, after the strategy")
     duration_s: float = field(60.0, "test time limit (s)", min_exclusive=0.0, max=3600.0)
     scan_deg: float = field(60.0, "scan: headings judged within ± this of the current one (deg)", min=10.0,
                             max=180.0)
@@ -95,8 +99,91 @@ class RouteFollowingConfig:
                              "learnt once and, on the kinematic backend, tested by all trials as one batch of "
                              "agents; -1: each trial grows its own forest from its seed (trials one at a time)",
                              min=-1, max=2**31 - 1)
-    release_jitter_m: float = field(0.0, "each trial's release moved by a seeded Gaussian offset of this standard "
-                                    "deviation on each axis (m)", min=0.0, max=5.0)
+    variability: str = variability_field()
+    release_jitter_m: float = field(0.1, "variability: each trial's release moved by a seeded Gaussian offset of "
+                                    "this standard deviation on each axis (m)", min=0.0, max=5.0)
+    release_heading_jitter_deg: float = field(10.0, "variability: each trial's release heading turned by a seeded "
+                                              "Gaussian angle of this standard deviation (deg)", min=0.0, max=180.0)
+    eye_noise: float = field(0.02, "variability: Gaussian noise added to every pixel of every view the mushroom "
+                             "body reads, training and test (standard deviation, grey levels 0-1)", min=0.0, max=1.0)
+    turn_noise: float = field(0.03, "variability: Gaussian noise added to each gait cycle's test turn θ "
+                              "(standard deviation; θ = ±1 turns on the spot)", min=0.0, max=1.0)
+    stride_noise_deg: float = field(1.0, "variability: Gaussian noise added to each gait cycle's test stride of 20° "
+                                    "(standard deviation, deg)", min=0.0, max=10.0)
+
+    def cross_check(self) -> None:
+        strategies(self)
+        release_offsets_m(self)
+
+
+def strategies(config: RouteFollowingConfig) -> tuple[str, ...]:
+    """The strategies of ``config.strategy`` (one, or a comma list cycled over trials by seed)."""
+    values = tuple(v.strip() for v in str(config.strategy).split(","))
+    if not values or any(v not in STRATEGIES for v in values):
+        raise ConfigError(f"strategy: expected scan, klinokinesis or a comma list of them, got {config.strategy!r}")
+    return values
+
+
+def release_offsets_m(config: RouteFollowingConfig) -> tuple[float, ...]:
+    """The release offsets of ``config.release_offset_m`` (m; one, or a comma list cycled over trials)."""
+    try:
+        values = tuple(float(v) for v in str(config.release_offset_m).split(","))
+    except ValueError:
+        raise ConfigError(f"release_offset_m: expected an offset or a comma list of offsets in metres (-10 to 10), "
+                          f"got {config.release_offset_m!r}") from None
+    if not all(np.isfinite(v) and -10.0 <= v <= 10.0 for v in values):
+        raise ConfigError(f"release_offset_m: every offset must be within -10 to 10 m, got {config.release_offset_m!r}")
+    return values
+
+
+def trial_release_offset_m(config: RouteFollowingConfig, seed: int) -> float:
+    """Trial ``seed``'s release offset: the list of ``release_offset_m`` cycled by whole cycles of the strategies
+    (so that every strategy meets every offset)."""
+    values = release_offsets_m(config)
+    return values[(seed // len(strategies(config))) % len(values)]
+
+
+def trial_strategy(config: RouteFollowingConfig, seed: int) -> str:
+    """Trial ``seed``'s strategy: the comma list of ``strategy`` cycled by seed."""
+    values = strategies(config)
+    return values[seed % len(values)]
+
+
+class RouteNoise:
+    """The sensor and motor noise of a batch of trials (agent i seeded by ``seeds[i]``), sized by ``config``
+    and drawn only when ``variability`` is on: each trial draws from its own generators, whatever its batch.
+
+    Parameters
+    ----------
+    config : RouteFollowingConfig
+        ``eye_noise``, ``turn_noise``, ``stride_noise_deg`` and ``variability`` are read.
+    seeds : sequence of int
+        One per agent; the eye and the motor are separate streams of each.
+    eye_source : str
+        The eye's stream: ``"eye"`` for the test, ``"eye_training"`` for the guided walk.
+    """
+
+    def __init__(self, config: RouteFollowingConfig, seeds, eye_source: str = "eye") -> None:
+        on = is_on(config)
+        self.eye_sd = config.eye_noise if on else 0.0
+        self.turn_sd = config.turn_noise if on else 0.0
+        self.stride_sd_rad = float(np.radians(config.stride_noise_deg)) if on else 0.0
+        self.eye = trial_generators(seeds, eye_source)
+        self.motor = trial_generators(seeds, "motor")
+
+    def view(self, agent: int, panorama: np.ndarray) -> np.ndarray:
+        """Agent ``agent``'s panorama as its eye reads it (unchanged without eye noise)."""
+        if not self.eye_sd:
+            return panorama
+        return panorama + self.eye[agent].normal(0.0, self.eye_sd, np.shape(panorama))
+
+    def command(self, agent: int, turn: float, stride_rad: float = STRIDE_RAD) -> tuple[float, float]:
+        """A gait cycle's (turn, stride) as the legs carry it out: turn clipped to [-1, 1], stride >= 0."""
+        if not (self.turn_sd or self.stride_sd_rad):
+            return turn, stride_rad
+        d_turn, d_stride = self.motor[agent].normal(0.0, 1.0, 2)
+        return (float(np.clip(turn + self.turn_sd * d_turn, -1.0, 1.0)),
+                float(max(stride_rad + self.stride_sd_rad * d_stride, 0.0)))
 
 
 # The scan's steering constants per body where the settings leave them at 0 (measured, seeds 1-4 and 1-10:
@@ -162,8 +249,8 @@ class GuidedLearning:
     """
 
     def __init__(self, route_m: np.ndarray, memory: RouteMemory, calls_per_cycle: int = 1,
-                 travel_aligned: bool = False) -> None:
-        self.route_m, self.memory = route_m, memory
+                 travel_aligned: bool = False, noise: RouteNoise | None = None) -> None:
+        self.route_m, self.memory, self.noise = route_m, memory, noise
         self.calls_per_cycle, self.travel_aligned = calls_per_cycle, travel_aligned
         self.positions: list[np.ndarray] = []
         self.crab_deg: list[float] = []
@@ -173,7 +260,8 @@ class GuidedLearning:
         sensed = loop.backend.read(("position", "heading", "panorama"))
         position, heading = sensed["position"][0], float(sensed["heading"][0, 0])
         self.positions.append(position.copy())
-        self.memory.learn(np.roll(sensed["panorama"], self.view_roll_columns(heading), axis=-1))
+        panorama = self.noise.view(0, sensed["panorama"]) if self.noise else sensed["panorama"]
+        self.memory.learn(np.roll(panorama, self.view_roll_columns(heading), axis=-1))
         nearest = int(np.argmin(np.hypot(*(self.route_m - position).T)))
         target = self.route_m[min(nearest + int(round(LOOKAHEAD_M / SPACING_M)), len(self.route_m) - 1)]
         desired = np.arctan2(target[0] - position[0], target[1] - position[1])
@@ -215,8 +303,9 @@ class FamiliaritySteering:
 
     def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float,
                  views_per_cycle: int = 1, full_turn_deg: float = 30.0,
-                 klinokinesis: tuple[float, float] = (2.0, 1.0)) -> None:
+                 klinokinesis: tuple[float, float] = (2.0, 1.0), noise: RouteNoise | None = None) -> None:
         self.strategy, self.memory, self.route_m, self.reach_m = strategy, memory, route_m, reach_m
+        self.noise, self.stride = noise, STRIDE_RAD
         self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
         self.log["position_m"] = []
         self.side = 1.0
@@ -228,20 +317,24 @@ class FamiliaritySteering:
         """Called ``views_per_cycle`` times per gait cycle; turns once per cycle, on the novelty averaged over
         the last ``views_per_cycle`` views (so that the body's sway within a stride averages out)."""
         sensed = loop.backend.read(("position", "heading", "panorama"))
-        offsets, values, active = self.memory.scan(sensed["panorama"])
+        panorama = self.noise.view(0, sensed["panorama"]) if self.noise else sensed["panorama"]
+        offsets, values, active = self.memory.scan(panorama)
         self.recent = [*self.recent, values][-self.views_per_cycle:]
         self.ticks += 1
         if (self.ticks - 1) % self.views_per_cycle:
-            return self.turn, STRIDE_RAD
+            return self.turn, self.stride
         self.side = -self.side
         ahead = values[np.flatnonzero(offsets == 0.0)[0]]
-        turn = self.turn = familiarity_turn(self.strategy, self.memory, offsets, np.mean(self.recent, axis=0), active,
-                                            self.side, self.full_turn_deg, *self.klinokinesis)
+        turn = familiarity_turn(self.strategy, self.memory, offsets, np.mean(self.recent, axis=0), active,
+                                self.side, self.full_turn_deg, *self.klinokinesis)
+        if self.noise:
+            turn, self.stride = self.noise.command(0, turn)
+        self.turn = turn
         for key, value in (("time_s", loop.time_s), ("heading_rad", sensed["heading"][0, 0]), ("novelty", ahead),
                            ("turn", turn), ("kc_active", active)):
             self.log[key].append(float(value))
         self.log["position_m"].append(sensed["position"][0].copy())
-        return turn, STRIDE_RAD
+        return turn, self.stride
 
     def arrived(self, loop: AgentLoop) -> bool:
         """Within ``reach_m`` of the route's end (checked every control step)."""
@@ -260,10 +353,17 @@ def world_seed(config: RouteFollowingConfig, seed: int) -> int:
     return config.forest_seed if config.forest_seed >= 0 else seed
 
 
-def trial_release(config: RouteFollowingConfig, points: np.ndarray, headings: np.ndarray, seed: int) -> np.ndarray:
-    """A trial's release point: ``release_offset_m`` right of the start, plus its seeded jitter."""
-    jitter = np.random.default_rng(seed).normal(0.0, 1.0, 2) * config.release_jitter_m
-    return release_point(points, headings, config.release_offset_m) + jitter
+def trial_start(config: RouteFollowingConfig, points: np.ndarray, headings: np.ndarray,
+                seed: int) -> tuple[np.ndarray, float]:
+    """A trial's release point and heading (rad, clockwise from +y): its release offset right of the route's
+    start, facing its first heading; with ``variability`` on, moved by the trial's seeded jitter
+    (``release_jitter_m`` on each axis, then ``release_heading_jitter_deg``)."""
+    position, heading = release_point(points, headings, trial_release_offset_m(config, seed)), float(headings[0])
+    if not is_on(config):
+        return position, heading
+    draws = trial_generators([seed], "release")[0].normal(0.0, 1.0, 3)
+    return (position + config.release_jitter_m * draws[:2],
+            heading + float(np.radians(config.release_heading_jitter_deg)) * float(draws[2]))
 
 
 def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
@@ -277,18 +377,21 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.test_views_per_cycle)
     training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
                              brain_dt_s=CYCLE_S / config.views_per_cycle)
-    steering = FamiliaritySteering(config.strategy, memory, points, config.reach_m, config.test_views_per_cycle,
-                                   config.scan_full_turn_deg, (config.klinokinesis_gain, config.klinokinesis_max_turn))
+    steering = FamiliaritySteering(trial_strategy(config, seed), memory, points, config.reach_m,
+                                   config.test_views_per_cycle, config.scan_full_turn_deg,
+                                   (config.klinokinesis_gain, config.klinokinesis_max_turn),
+                                   noise=RouteNoise(config, [seed]))
     with engine:
         engine.load(world, [body])
-        guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views)
+        guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views,
+                               noise=RouteNoise(config, [world_seed(config, seed)], "eye_training"))
         training = AgentLoop(engine, gait, training_clocks, steering=guide)
         training.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
         training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
         memory.freeze()
         test = AgentLoop(engine, gait, clocks, steering=steering)
-        start = trial_release(config, points, headings, seed)
-        test.reset(seed=seed, position_m=tuple(start), yaw_rad=np.pi / 2 - headings[0])
+        start, start_heading = trial_start(config, points, headings, seed)
+        test.reset(seed=seed, position_m=tuple(start), yaw_rad=np.pi / 2 - start_heading)
         test.run(config.duration_s, until=steering.arrived)
         final = engine.read(("position",))["position"][0]
         test_time_s = test.time_s
@@ -297,7 +400,8 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     log["train_position_m"] = np.array(guide.positions).reshape(-1, 2)
     if landscape:
         log.update(familiarity_landscape(memory, world, points, headings))
-    return route_metrics(log["position_m"], points, config, memory.views, test_time_s), log
+    row = route_metrics(log["position_m"], points, config, memory.views, test_time_s)
+    return dict(row, strategy=steering.strategy, release_offset_m=trial_release_offset_m(config, seed)), log
 
 
 def route_metrics(path_m: np.ndarray, points: np.ndarray, config: RouteFollowingConfig, views: int,
@@ -355,6 +459,7 @@ class RouteFollowing(Scenario):
     """Learn a route's views with the mushroom body, then follow it by familiarity alone."""
 
     name = "route-following"
+    condition_columns = ("strategy",)
     description = ("learn a forest route's views in one guided walk (mushroom body), then follow it by "
                    "familiarity: scanning or klinokinesis; displaced releases give the catchment")
     config_type = RouteFollowingConfig
@@ -364,6 +469,20 @@ class RouteFollowing(Scenario):
 
     def smoke_config(self) -> dict:
         return {"route_m": 2.0, "duration_s": 4.0, "n_kc": 500, "landscape": False}
+
+    def statistics(self, config: RouteFollowingConfig) -> Statistics:
+        """Per strategy (each trial's ``strategy`` column; ``--set strategy=scan,klinokinesis`` runs both, cycled
+        by seed) against the first listed or, with one strategy and several release offsets
+        (``release_offset_m=0,1``), per offset against the first listed: the checkpoints reached, the distances
+        from the route, the test time and success."""
+        offsets = release_offsets_m(config)
+        if len(strategies(config)) == 1 and len(offsets) > 1:
+            return Statistics(condition="release_offset_m", reference=offsets[0],
+                              metrics=("checkpoints_reached", "mean_distance_m", "max_distance_m",
+                                       "final_distance_to_goal_m", "test_time_s"))
+        return Statistics(condition="strategy", reference=strategies(config)[0],
+                          metrics=("checkpoints_reached", "mean_distance_m", "max_distance_m",
+                                   "final_distance_to_goal_m", "test_time_s"))
 
     def leading_series(self, config: RouteFollowingConfig, backend: str) -> dict[str, int]:
         """The route (the same in every trial) and the first trial's landscape, stored once."""
@@ -417,7 +536,8 @@ def train_once(config: RouteFollowingConfig, world, points: np.ndarray, headings
     """The guided training walk on the kinematic unicycle (one agent); the learnt memory frozen. Its path."""
     engine, body, gait, physics_dt = make_route_engine("kinematic", config.timestep_s)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.views_per_cycle)
-    guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views)
+    guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views,
+                           noise=RouteNoise(config, [config.forest_seed], "eye_training"))
     with engine:
         engine.load(world, [body])
         training = AgentLoop(engine, gait, clocks, steering=guide)
@@ -440,7 +560,11 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
     memory = RouteMemory(config, config.forest_seed)
     train_path = train_once(config, world, points, headings, memory)
     n = len(seeds)
-    starts = np.array([trial_release(config, points, headings, s) for s in seeds])
+    releases = [trial_start(config, points, headings, s) for s in seeds]
+    starts = np.array([position for position, _ in releases]).reshape(-1, 2)
+    start_headings = np.array([heading for _, heading in releases])
+    trial_strategies = [trial_strategy(config, s) for s in seeds]
+    noise = RouteNoise(config, seeds)
     engine, body, _, _ = make_route_engine("kinematic", config.timestep_s)
     body = replace(body, count=n)
     controls = int(round(CYCLE_S / CONTROL_S))
@@ -449,18 +573,17 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
     sides = np.ones(n)
     with engine:
         engine.load(world, [body])
-        engine.reset(seed=0, position_m=starts, heading_rad=np.full(n, headings[0]))
+        engine.reset(seed=0, position_m=starts, heading_rad=start_headings)
         while engine.time < config.duration_s - 1e-9 and np.isnan(done_s).any():
             sensed = engine.read(("position", "heading", "panorama"))
             turn, stride = np.zeros((n, 1)), np.zeros((n, 1))
             sides = -sides
             for i in np.flatnonzero(np.isnan(done_s)):
-                offsets, values, active = memory.scan(sensed["panorama"][i:i + 1])
+                offsets, values, active = memory.scan(noise.view(i, sensed["panorama"][i:i + 1]))
                 ahead = values[np.flatnonzero(offsets == 0.0)[0]]
-                turn[i, 0] = familiarity_turn(config.strategy, memory, offsets, values, active, sides[i],
-                                              config.scan_full_turn_deg, config.klinokinesis_gain,
-                                              config.klinokinesis_max_turn)
-                stride[i, 0] = STRIDE_RAD
+                turn[i, 0], stride[i, 0] = noise.command(i, familiarity_turn(
+                    trial_strategies[i], memory, offsets, values, active, sides[i], config.scan_full_turn_deg,
+                    config.klinokinesis_gain, config.klinokinesis_max_turn))
                 for key, value in (("time_s", engine.time), ("heading_rad", sensed["heading"][i, 0]),
                                    ("novelty", ahead), ("turn", turn[i, 0]), ("kc_active", active)):
                     logs[i][key].append(float(value))
@@ -481,7 +604,8 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
         log = {k: np.array(v, float) for k, v in logs[i].items() if k != "position_m"}
         log["position_m"] = np.array([*logs[i]["position_m"], final[i]]).reshape(-1, 2)
         log["train_position_m"] = train_path
-        rows.append(route_metrics(log["position_m"], points, config, memory.views, float(end_s[i])))
+        rows.append(dict(route_metrics(log["position_m"], points, config, memory.views, float(end_s[i])),
+                         strategy=trial_strategies[i], release_offset_m=trial_release_offset_m(config, seeds[i])))
         out.append(log)
     if landscape and n:
         out[0].update(familiarity_landscape(memory, world, points, headings))

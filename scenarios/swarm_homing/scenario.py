@@ -8,18 +8,19 @@ sunflower spiral (:func:`home_positions`, neighbours ``spacing_m`` apart), forag
 turn commands for ``outbound_s``, then the CX walks it home; an ant within ``nest_radius_m`` of home
 stops, and the swarm runs until all are home or ``homing_timeout_s`` has passed. Bodies: unicycle point
 agents on ``kinematic``; desert ants walked by their own FK tripod in one world on ``mujoco``
-(:class:`neuronav.backends.mujoco.swarm.MujocoSwarm`, at most 31) and ``pybullet``
-(:class:`neuronav.backends.pybullet.swarm.PybulletSwarm`), where they collide.
+(``MujocoSwarm``, at most 31) and ``pybullet`` (``PybulletSwarm``), where they collide.
+
+``variability=on``: sensor and motor noise per gait cycle from each ant's seed, as in path integration's
+embodied protocol (:func:`~neuronav.scenarios.path_integration.embodied.homing_noise`, ``motor_noise``).
 
 Rows are ants: trial i (seed s = seed + i) is ant ``s mod ants`` of swarm ``s // ants``; a swarm follows
 from its index and the settings alone, so a row re-run alone, in any chunk or batch, is the same.
 ``swarm_position_m`` holds the first trial's whole swarm, drawn by ``swarm_trajectories.png``.
 
-Metrics per ant: ``success`` (within ``nest_radius_m`` of home after the outbound phase),
-``homing_time_s`` (NaN if never), ``closest_distance_m``, ``home_distance_m`` (at the turn back),
-``straightness``, ``decode_error_deg`` (the CPU4 home vector's direction at the turn back against the
-true one), ``ant_contact_s`` (time touching another ant), ``ant``, ``swarm``; timing:
-``ant_seconds_per_wall_s`` (ants x simulated seconds / wall seconds of the swarm's run).
+Metrics per ant: ``success`` (home after the outbound phase), ``homing_time_s`` (NaN if never),
+``closest_distance_m``, ``home_distance_m`` (at the turn back), ``straightness``, ``decode_error_deg`` (CPU4's
+home vector at the turn back against the true one), ``ant_contact_s`` (time touching another ant), ``ant``,
+``swarm``; timing: ``ant_seconds_per_wall_s`` (ants x simulated seconds / wall seconds of the swarm's run).
 
 Results, sources and model choices: README.md in this folder.
 """
@@ -40,7 +41,11 @@ from neuronav.engine.loop import integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs import sweep
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import settings
+from neuronav.scenarios.motor_noise import stride_noise_field, turn_noise_field
+from neuronav.scenarios.path_integration.embodied import homing_noise, motor_noise
+from neuronav.scenarios.variability import variability_field
 from neuronav.spec.world import Ground, PointAgents, World
 
 CYCLE_S = 0.64  # one tripod gait cycle: the brain's period
@@ -51,8 +56,10 @@ MAX_PHYSICS_ANTS = 31  # neuronav.backends.mujoco.swarm.MAX_ANTS: one contact bi
 # Memory of one swarm (kinematic, --trials 1, peak RSS of the whole command): 5000 ants for 313 gait
 # cycles took 54.6 MB more than for 11 (36 B per ant and cycle: the float64 trajectories, their float32
 # record and its copy on the way to the file), 20000 ants 99 MB more than 5000 (6.6 KB per ant: the
-# ants' random generators, CX state, bodies). Rounded up:
-SWARM_BYTES_PER_ANT_CYCLE = 40
+# ants' random generators, CX state, bodies). With variability=on (issue 22: two sensor errors per ant and
+# cycle drawn up front, each ant's motor-noise generator) 5000 ants for 313 cycles took 177.5 MB more than
+# 11, so 87 B per ant and cycle beside the 8 KB per ant. Rounded up:
+SWARM_BYTES_PER_ANT_CYCLE = 96
 SWARM_BYTES_PER_ANT = 8192
 # Per trial (row): its own trajectory, float64 and float32 (24 B per cycle, rounded up), and its row.
 TRIAL_BYTES_PER_CYCLE = 32
@@ -78,6 +85,11 @@ class SwarmHomingConfig:
     foraging_stride_deg: float = settings.foraging_stride_field()
     timestep_s: float = field(0.002, "physics step (s), a whole fraction of the 8 ms control step",
                               min=1e-4, max=0.008)
+    variability: str = variability_field()
+    compass_noise_deg: float = settings.compass_noise_field()
+    odometry_noise_fraction: float = settings.odometry_noise_field()
+    turn_noise_sd: float = turn_noise_field()
+    stride_noise_fraction: float = stride_noise_field()
 
 
 def home_positions(ants: int, spacing_m: float) -> np.ndarray:
@@ -151,6 +163,8 @@ def run_swarm(config: SwarmHomingConfig, backend: str, swarm: int) -> dict:
                    memory_leak=config.memory_leak).compile(batch=n, seeds=seeds)
     controls_per_cycle = integer_ratio(CYCLE_S, CONTROL_S, "gait cycle / control step")
     cycles = int(np.ceil((config.outbound_s + config.homing_timeout_s) / CYCLE_S - 1e-9))
+    errors = homing_noise(config, seeds, cycles)  # per ant and cycle, from each ant's seed; None: exact
+    motors = [motor_noise(config, s) for s in seeds] if errors is not None else None
     positions = np.full((cycles + 1, n, 2), np.nan)
     last = homes.copy()
     turn, stride = np.zeros(n), np.zeros(n)
@@ -164,7 +178,11 @@ def run_swarm(config: SwarmHomingConfig, backend: str, swarm: int) -> dict:
         sensed = bodies.engine.read(("heading", "position"))
         position = sensed["position"]
         positions[cycle] = position
-        cx.step({"heading": sensed["heading"], "velocity": position - last})  # metres per gait cycle
+        heading, velocity = sensed["heading"], position - last  # rad, metres per gait cycle
+        if errors is not None:
+            heading = heading + errors["compass"][:, cycle, None]
+            velocity = velocity * (1.0 + errors["odometry"][:, cycle, None])
+        cx.step({"heading": heading, "velocity": velocity})
         last = position
         if time_s < config.outbound_s:
             noise = np.array([w.normal(0.0, config.foraging_turn_std) for w in walks])
@@ -177,10 +195,14 @@ def run_swarm(config: SwarmHomingConfig, backend: str, swarm: int) -> dict:
             if np.isfinite(home_at).all():
                 break
             turn, stride = steering_commands(cx.rates("CPU1"), config.k_pi)
+        command_turn, command_stride = turn, stride
+        if motors is not None:  # what each ant's legs make of its command (the foraging walk's state stays exact)
+            command_turn, command_stride = np.array([m(float(t), float(s))
+                                                     for m, t, s in zip(motors, turn, stride)]).reshape(n, 2).T.copy()
         for step in range(controls_per_cycle):
             done = np.isfinite(home_at)
-            turn[done], stride[done] = 0.0, 0.0  # an ant at home stands
-            bodies.control_step(turn, stride)
+            command_turn[done], command_stride[done] = 0.0, 0.0  # an ant at home stands
+            bodies.control_step(command_turn, command_stride)
             contact_s += CONTROL_S * bodies.touching()
             if turnback_memory is not None:
                 position = bodies.engine.read(("position",))["position"]
@@ -261,6 +283,12 @@ class SwarmHoming(Scenario):
 
     def smoke_config(self) -> dict:
         return {"ants": 4, "outbound_s": 3.2, "homing_timeout_s": 3.2}
+
+    def statistics(self, config: SwarmHomingConfig) -> Statistics:
+        """One group (the ants of the run): success with its Wilson interval and the ants' homing
+        measures with bootstrap intervals (not ``ant`` and ``swarm``, which are indices)."""
+        return Statistics(condition=None, metrics=("homing_time_s", "closest_distance_m", "home_distance_m",
+                                                   "straightness", "decode_error_deg", "ant_contact_s"))
 
     def leading_series(self, config: SwarmHomingConfig, backend: str) -> dict[str, int]:
         """The first trial's whole swarm, stored once."""

@@ -36,7 +36,9 @@ STRIDES_DEG = np.array([0.0, 5.0, 10.0, 15.0, 20.0, 25.0])
 
 def measure(backend: str, duration_s: float, seed: int = 0) -> dict:
     """The calibration table as a JSON-ready dict."""
-    base = apply_overrides(LocomotionConfig, {"duration_s": duration_s, "initial_yaw_jitter_rad": 0.0})
+    # The commanded walk itself: no start jitter, no motor noise.
+    base = apply_overrides(LocomotionConfig, {"duration_s": duration_s, "initial_yaw_jitter_rad": 0.0,
+                                              "variability": "off"})
     speed = np.zeros((TURNS.size, STRIDES_DEG.size))
     rate = np.zeros_like(speed)
     for i, turn in enumerate(TURNS):

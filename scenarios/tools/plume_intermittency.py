@@ -20,13 +20,13 @@ of CPU).
 
 The settings (``--set KEY=VALUE``, as for ``neuronav run``) are the plume-tracking scenario's plume
 (:func:`neuronav.scenarios.plume_tracking.scenario.plume_config`): one source at ``(source_x_m, 0)``,
-the wind along +x, Farrell et al. 2002's model; the defaults are the scenario's before issue 22 (1 unit
-of odour per puff, 60 puffs/s, threshold 1e-6, wind 2 m/s, wind noise gain 0.2, puff spread 0.2 m/√s).
-With them the odour on the plume's axis is above threshold 93-100 % of the time from 1 to 6.5 m
-downwind; with ``--set release_rate_hz=10 --set puff_amount=3e-7 --set wind_gain=0.4 --downwind
-1,2,4,6.5`` (the plume proposed for issue 22) 30, 26, 22 and 19 % (5 seeds of 60 s, measured
-2026-11-27), against the 25-20 % that Murlis & Jones (1981) measured on the axis 2-15 m from a source
-in the field (as cited by Rando et al., eLife, article 102906).
+the wind along +x, Farrell et al. 2002's model; the defaults are the scenario's (since issue 22: 3e-7
+units of odour per puff, 10 puffs/s, threshold 1e-6, wind 2 m/s, wind noise gain 0.4, puff spread
+0.2 m/√s). With them (``--downwind 1,2,4,6.5``) the odour on the plume's axis is above threshold 30,
+26, 22 and 19 % of the time 1, 2, 4 and 6.5 m downwind (5 seeds of 60 s, measured 2026-11-27), against
+the 25-20 % that Murlis & Jones (1981) measured on the axis 2-15 m from a source in the field (as cited
+by Rando et al., eLife, article 102906). The plume before issue 22 (``--set release_rate_hz=60 --set
+puff_amount=1 --set wind_gain=0.2``) is above threshold 93-100 % of the time from 1 to 6.5 m downwind.
 
 Usage::
 
@@ -57,12 +57,12 @@ STATISTICS = ("intermittency", "whiffs_per_s", "whiff_mean_s", "whiff_median_s",
 class IntermittencyConfig:
     """The plume measured: the scenario's source, wind and threshold, and the model's constants."""
 
-    puff_amount: float = field(1.0, "Q, the odour carried by one puff (amount)", min_exclusive=0.0, max=1e9)
-    release_rate_hz: float = field(60.0, "puffs released per second at the source", min_exclusive=0.0, max=1e4)
+    puff_amount: float = field(3e-7, "Q, the odour carried by one puff (amount)", min_exclusive=0.0, max=1e9)
+    release_rate_hz: float = field(10.0, "puffs released per second at the source", min_exclusive=0.0, max=1e4)
     threshold: float = field(1e-6, "detection threshold (amount/m^3): odour above it is a whiff",
                              min_exclusive=0.0, max=1e6)
     wind_mps: float = field(2.0, "mean wind speed along +x (m/s)", min=0.5, max=5.0)
-    wind_gain: float = field(0.2, "G, the gain of the wind's coloured noise: the plume's meander (m/s per "
+    wind_gain: float = field(0.4, "G, the gain of the wind's coloured noise: the plume's meander (m/s per "
                              "sqrt(rad/s))", min=0.0, max=10.0)
     puff_spread_m_per_sqrt_s: float = field(0.2, "sigma, the white noise on each puff's centre (m/sqrt(s))",
                                             min=0.0, max=10.0)

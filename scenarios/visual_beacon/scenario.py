@@ -14,9 +14,13 @@ and steers toward it through CPU1:
 both — one run shows all three). Start headings as the paper's (I2Bot §3.3.4; docs/parameters.md §7): the landmark
 0–90° to the left for the left eye, 0–90° to the right for the right eye, within ±45° for both.
 
+Trials differ (``variability=on``): start jitter, eye pixel and motor noise, each a setting
+(:mod:`neuronav.scenarios.eye_noise`, :mod:`neuronav.scenarios.motor_noise`); ``variability=off``: the paper's protocol.
+
 Metrics per trial: ``success`` (within ``success_radius_m`` of the landmark), ``time_to_landmark_s``,
 ``closest_distance_m``, the signed ``lateral_offset_m`` (largest) and ``mean_lateral_offset_m`` from the
-start–landmark line (+ = left), ``path_ratio``; per eye mode the median time, success and offset.
+start–landmark line (+ = left), ``path_ratio``; per eye mode the median time, success and offset;
+statistics: each monocular mode against both eyes (``eye_mode`` 0 left, 1 right, 2 both).
 
 Results, sources and model choices: README.md in this folder.
 """
@@ -34,10 +38,14 @@ from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.aggregation import finite_median_of, mean_of, per_condition, success_rate
+from neuronav.scenarios.eye_noise import EyeNoise, eye_pixel_noise_field
+from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_noise_field
 from neuronav.scenarios.path_integration.embodied import steering_command
 from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
+from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import forest, landmark, vision_appearance
 from neuronav.spec.world import Ground, World
@@ -61,6 +69,12 @@ class VisualBeaconConfig:
                                     min_exclusive=0.0, max=50.0)
     timeout_s: float = settings.trial_timeout_field(120.0, "look")
     timestep_s: float = settings.timestep_field()
+    variability: str = variability_field()
+    start_position_sd_m: float = field(0.5, "start jitter: std of each start coordinate's Gaussian offset (m), with "
+                                       "variability=on (0.5: half the ant's body length at x100)", min=0.0, max=5.0)
+    eye_pixel_noise_sd: float = eye_pixel_noise_field()
+    turn_noise_sd: float = turn_noise_field()
+    stride_noise_fraction: float = stride_noise_field()
 
     def cross_check(self) -> None:
         if self.success_radius_m >= self.landmark_distance_m:
@@ -91,6 +105,10 @@ class BeaconBrain:
     def __init__(self, config: VisualBeaconConfig, mode: str, seed: int) -> None:
         self.config, self.mode = config, mode
         self.circuit = copy_and_shift().compile(batch=1, seeds=[seed])
+        noisy = is_on(config)
+        self.eye_noise = EyeNoise(seed, config.eye_pixel_noise_sd if noisy else 0.0)
+        self.motor_noise = MotorNoise(seed, config.turn_noise_sd if noisy else 0.0,
+                                      config.stride_noise_fraction if noisy else 0.0)
         self.log: dict[str, list] = {k: [] for k in ("time_s", "position_m", "heading_rad", "shift", "turn",
                                                      "stride_rad")}
         self.first_view: dict[str, np.ndarray] = {}
@@ -98,7 +116,7 @@ class BeaconBrain:
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         eyes = EYES[self.mode]
         sensed = loop.backend.read(("heading", "position", *eyes))
-        images = {name: sensed[name] for name in eyes}
+        images = {name: self.eye_noise(sensed[name]) for name in eyes}
         if not self.first_view:  # both eyes' first view, for the figure (the brain uses only its own)
             start = loop.backend.read(("eye_L", "eye_R"))
             self.first_view = {name: image[0].copy() for name, image in start.items()}
@@ -110,7 +128,7 @@ class BeaconBrain:
                            ("heading_rad", heading[0, 0]), ("shift", shift[0, 0]), ("turn", command[0]),
                            ("stride_rad", command[1])):
             self.log[key].append(np.array(value, float))
-        return command
+        return self.motor_noise(*command)
 
 
 def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video_path=None) -> tuple[dict, dict]:
@@ -118,6 +136,11 @@ def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video
     mode = eye_mode(config, seed)
     rng = np.random.default_rng([seed, 4])
     heading0 = float(rng.uniform(*START_HEADINGS_RAD[mode]))
+    start = np.zeros(2)
+    if is_on(config):  # the start moved; the start heading drawn as before, relative to the landmark's bearing
+        start = jitter_start(trial_generators([seed], "start"), start[None], np.zeros(1), config.start_position_sd_m,
+                             0.0)[0][0]
+        heading0 += float(np.arctan2(-start[0], config.landmark_distance_m - start[1]))
     world = beacon_world(config, seed)
     engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s)
     brain = BeaconBrain(config, mode, seed)
@@ -129,23 +152,29 @@ def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video
         return bool(np.hypot(*(position - goal)) <= config.success_radius_m)
 
     loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
-                                   duration_s=config.timeout_s, until=arrived, video_path=video_path)
+                                   duration_s=config.timeout_s, until=arrived, video_path=video_path,
+                                   position_m=tuple(start))
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     log["position_m"] = np.vstack([log["position_m"], final[None]])
     log["end_time_s"] = np.array(loop.time_s)
     log["first_view"] = brain.first_view
-    return beacon_metrics(log, config, mode, heading0, loop.time_s, wall_s), log
+    return beacon_metrics(log, config, mode, heading0, loop.time_s, wall_s, start), log
 
 
 def beacon_metrics(log: dict, config: VisualBeaconConfig, mode: str, heading0: float, trial_time_s: float,
-                   wall_s: float) -> dict:
+                   wall_s: float, start_m=(0.0, 0.0)) -> dict:
     """Success, time to the landmark and the path's shape (signed lateral offset, length over distance)."""
     path = log["position_m"]
     goal = np.array([0.0, config.landmark_distance_m])
     distance = np.hypot(path[:, 0] - goal[0], path[:, 1] - goal[1])
     reached = bool(distance.min() <= config.success_radius_m)
-    # Signed offset from the start-landmark line, + to the left (−x) looking at the landmark.
-    lateral = -path[:, 0]
+    # Signed offset from the start-landmark line, + to the left looking at the landmark (−x from the origin).
+    start = np.asarray(start_m, float)
+    if start.any():
+        along = (goal - start) / np.hypot(*(goal - start))
+        lateral = along[1] * (start[0] - path[:, 0]) + along[0] * (path[:, 1] - start[1])
+    else:
+        lateral = -path[:, 0]
     extreme = int(np.argmax(np.abs(lateral)))
     length = float(np.linalg.norm(np.diff(path, axis=0), axis=1).sum())
     travelled = float(np.hypot(*(path[-1] - path[0])))
@@ -179,6 +208,12 @@ class VisualBeacon(Scenario):
 
     def smoke_config(self) -> dict:
         return {"timeout_s": 2.0, "trees": 5}
+
+    def statistics(self, config: VisualBeaconConfig) -> Statistics:
+        """Per eye mode (``eye_mode`` 0 left, 1 right, 2 both), each monocular mode against both eyes."""
+        return Statistics(condition="eye_mode", reference=float(EYE_MODES.index("both")),
+                          metrics=("time_to_landmark_s", "closest_distance_m", "lateral_offset_m",
+                                   "mean_lateral_offset_m", "path_ratio"))
 
     def check(self, config: VisualBeaconConfig, backend: str) -> None:
         if backend != "kinematic":

@@ -14,16 +14,20 @@ every ``jump_every_s`` (the last jump a whole interval before the end, so each c
 recovered). Turning the scene counter-clockwise by α moves the stored direction from heading h₀ to
 h₀ − α (headings clockwise from +y): the error is the ant's heading minus that.
 
-Metrics per trial: ``mean_error_deg`` (after the first gait cycle), ``final_error_deg``, ``jumps``,
-``recovered_fraction``, ``mean_recovery_s`` and ``max_recovery_s`` (within ``recovered_deg``);
-``success``: mean error within ``recovered_deg`` (incremental) or every jump recovered (jump).
+Trials differ (``variability=on``): start jitter (the scene moves), eye pixel and motor noise, each a setting
+(:mod:`neuronav.scenarios.eye_noise`, :mod:`neuronav.scenarios.motor_noise`); ``variability=off``: the paper's protocol.
+
+Metrics per trial: ``mean_error_deg`` (after the first gait cycle), ``final_error_deg`` and the signed
+``final_error_rad`` (+ = clockwise of the stored direction), ``jumps``, ``recovered_fraction``,
+``mean_recovery_s`` and ``max_recovery_s`` (within ``recovered_deg``); ``success``: mean error within
+``recovered_deg`` (incremental) or every jump recovered (jump); statistics: one group, ``final_error_rad`` circular.
 
 Results, sources and model choices: README.md in this folder.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -33,10 +37,15 @@ from neuronav.brains.vision import ZernikeBasis, compass_command
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.runs.scenario import Scenario, ScenarioResult
+from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
+from neuronav.scenarios.eye_noise import EyeNoise, eye_pixel_noise_field
+from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_noise_field
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
+from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import compass_scene
+from neuronav.spec.world import World
 
 
 @dataclass
@@ -55,6 +64,12 @@ class VisualCompassConfig:
     recovered_deg: float = field(10.0, "a jump is recovered once the heading error is within this (deg)",
                                  min_exclusive=0.0, max=90.0)
     timestep_s: float = settings.timestep_field()
+    variability: str = variability_field()
+    start_position_sd_m: float = field(0.5, "start jitter: std of each start coordinate's Gaussian offset (m), with "
+                                       "variability=on (0.5: half the ant's body length at x100)", min=0.0, max=5.0)
+    eye_pixel_noise_sd: float = eye_pixel_noise_field()
+    turn_noise_sd: float = turn_noise_field()
+    stride_noise_fraction: float = stride_noise_field()
 
 
 class SceneRotation(Hook):
@@ -87,8 +102,12 @@ class SceneRotation(Hook):
 class CompassBrain:
     """Panorama → Z_{7,1} phase → eq. 3.10, once per gait cycle; logs what the figure and metrics need."""
 
-    def __init__(self, config: VisualCompassConfig, rotation: SceneRotation) -> None:
+    def __init__(self, config: VisualCompassConfig, rotation: SceneRotation, seed: int = 0) -> None:
         self.config, self.rotation = config, rotation
+        noisy = is_on(config)
+        self.eye_noise = EyeNoise(seed, config.eye_pixel_noise_sd if noisy else 0.0)
+        self.motor_noise = MotorNoise(seed, config.turn_noise_sd if noisy else 0.0,
+                                      config.stride_noise_fraction if noisy else 0.0)
         self.basis: ZernikeBasis | None = None
         self.stored_phase_rad: float | None = None
         self.log: dict[str, list] = {k: [] for k in ("time_s", "heading_rad", "scene_yaw_rad", "phase_rad", "turn",
@@ -96,7 +115,7 @@ class CompassBrain:
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         sensed = loop.backend.read(("heading", "panorama"))
-        panorama = sensed["panorama"]
+        panorama = self.eye_noise(sensed["panorama"])
         if self.basis is None:
             self.basis = ZernikeBasis(*panorama.shape[1:])
         phase = float(self.basis.compass_phase(panorama)[0])
@@ -107,24 +126,38 @@ class CompassBrain:
                            ("scene_yaw_rad", self.rotation.yaw_rad), ("phase_rad", phase), ("turn", turn),
                            ("stride_rad", stride)):
             self.log[key].append(float(value))
-        return float(turn), float(stride)
+        return self.motor_noise(float(turn), float(stride))
 
 
 def compass_trial(config: VisualCompassConfig, backend_name: str, seed: int, video_path=None) -> tuple[dict, dict]:
     """One trial: the metrics row and the per-cycle log."""
     rng = np.random.default_rng([seed, 6])
     heading0 = float(rng.uniform(-np.pi, np.pi))
+    world = compass_scene()
+    if is_on(config):  # the ant stands off the scene's centre (the start heading is drawn over the circle either way)
+        offset = jitter_start(trial_generators([seed], "start"), np.zeros((1, 2)), np.zeros(1),
+                              config.start_position_sd_m, 0.0)[0][0]
+        world = shifted(world, -offset)
     engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s)
     rotation = SceneRotation(config, seed)
-    brain = CompassBrain(config, rotation)
+    brain = CompassBrain(config, rotation, seed)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
-    loop, _, wall_s = run_loop(engine, compass_scene(), body, gait, clocks, brain, heading_rad=heading0, seed=seed,
+    loop, _, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
                                duration_s=config.duration_s, hooks=[rotation], video_path=video_path)
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     # The stored direction is the heading at the first look; the world's turn moves it (module doc).
     log["target_rad"] = wrap_rad(log["heading_rad"][0] - log["scene_yaw_rad"])
     log["error_rad"] = wrap_rad(log["heading_rad"] - log["target_rad"])
     return compass_metrics(log, config, rotation.jump_times_s, loop.time_s, wall_s), log
+
+
+def shifted(world: World, offset_m: np.ndarray) -> World:
+    """``world`` with every object moved by ``offset_m`` (x, y) m: the ant, starting at the origin, stands
+    off the scene's centre by ``-offset_m`` while the world still turns about the ant's start."""
+    dx, dy = (float(v) for v in offset_m)
+    objects = tuple(replace(o, position_m=(o.position_m[0] + dx, o.position_m[1] + dy, o.position_m[2]))
+                    for o in world.objects)
+    return replace(world, objects=objects)
 
 
 def compass_metrics(log: dict, config: VisualCompassConfig, jump_times_s: list[float], trial_time_s: float,
@@ -152,6 +185,7 @@ def compass_metrics(log: dict, config: VisualCompassConfig, jump_times_s: list[f
         "recovered_fraction": float(recovered.mean()) if recoveries else float("nan"),
         "mean_recovery_s": float(np.nanmean(recoveries)) if recovered.any() else float("nan"),
         "max_recovery_s": float(np.nanmax(recoveries)) if recovered.any() else float("nan"),
+        "final_error_rad": float(log["error_rad"][-1]),
         "trial_time_s": float(trial_time_s),
         "real_time_factor": float(trial_time_s / wall_s) if wall_s > 0 else float("nan"),
     }
@@ -171,6 +205,12 @@ class VisualCompass(Scenario):
 
     def smoke_config(self) -> dict:
         return {"duration_s": 2.0}
+
+    def statistics(self, config: VisualCompassConfig) -> Statistics:
+        """One group (``rotation`` is a run's setting): the heading errors (and, with jumps, the recoveries);
+        the signed final heading error as circular data."""
+        jumps = ("recovered_fraction", "mean_recovery_s", "max_recovery_s") if config.rotation == "jump" else ()
+        return Statistics(metrics=("mean_error_deg", "final_error_deg", *jumps), circular=("final_error_rad",))
 
     def check(self, config: VisualCompassConfig, backend: str) -> None:
         if backend != "kinematic":

@@ -153,7 +153,7 @@ def test_body_on_every_backend_one_second_of_random_targets(name, backend):
 BOOKKEEPING = {"trial", "seed", "status", "error"}
 
 
-def assert_metrics_finite(scenario, result):
+def assert_metrics_finite(scenario, result, condition=None):
     """Every metric of every trial (and every aggregate) is a finite number.
 
     The only exceptions are the metrics the scenario lists in ``optional_metrics``: those it documents
@@ -163,10 +163,12 @@ def assert_metrics_finite(scenario, result):
     declared = getattr(scenario, "optional_metrics", ())
     assert isinstance(declared, tuple) and all(isinstance(n, str) for n in declared), declared
     optional = set(declared)
-    names = {k for trial in result.trials for k in trial} - BOOKKEEPING
+    # The condition columns name a trial's condition; they measure nothing.
+    not_measured = BOOKKEEPING | {condition} | set(getattr(scenario, "condition_columns", ()))
+    names = {k for trial in result.trials for k in trial} - not_measured
     assert names, f"scenario {scenario.name} reports no metric"
     for trial in result.trials:
-        assert set(trial) - BOOKKEEPING == names, f"trial {trial['trial']} reports other metrics than the rest"
+        assert set(trial) - not_measured == names, f"trial {trial['trial']} reports other metrics than the rest"
         for key in sorted(names - optional):
             value = trial[key]
             assert isinstance(value, (bool, int, float, np.number)), f"{key} = {value!r} is not a number"
@@ -189,9 +191,26 @@ def test_scenario_runs_short_finite_and_repeats(name):
     for a, b in zip(first.trials, second.trials):
         for key in set(a) - set(scenario.timing_metrics):
             assert a[key] == b[key] or (a[key] != a[key] and b[key] != b[key]), key  # NaN == NaN
-    assert_metrics_finite(scenario, first)
+    assert_metrics_finite(scenario, first, scenario.statistics(config).condition)
     for key, array in first.timeseries.items():
         np.testing.assert_array_equal(array, second.timeseries[key], err_msg=key)
+
+
+@pytest.mark.parametrize("name", registry.names("scenario"))
+def test_scenario_trials_differ_and_declare_what_they_compare(name):
+    """Issue 22: with the default settings (``variability=on``) no two trials give the same metric row,
+    and the condition a scenario's statistics compare is a column of its rows."""
+    scenario = load_scenario(name)
+    config = apply_overrides(scenario.config_type, scenario.smoke_config())
+    assert getattr(config, "variability", None) == "on", f"{name}: variability must be a setting, on by default"
+    result = run_trials(scenario, config, scenario.default_backend, trials=3, seed=11)
+    spec = scenario.statistics(config)
+    skip = BOOKKEEPING | set(scenario.timing_metrics) | {"success"}
+    if spec.condition:
+        assert all(spec.condition in trial for trial in result.trials), f"{name}: no column {spec.condition!r}"
+        skip.add(spec.condition)
+    measured = [tuple(sorted((k, repr(v)) for k, v in trial.items() if k not in skip)) for trial in result.trials]
+    assert len(set(measured)) == len(measured), f"{name}: two trials gave identical metric rows"
 
 
 def test_the_metric_check_refuses_an_undeclared_nan_and_accepts_a_declared_one():

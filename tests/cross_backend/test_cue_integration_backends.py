@@ -68,3 +68,15 @@ def test_the_physics_ant_heads_between_the_cues_and_finds_the_nest(backend):
     result = run(backend, 6, conflict_deg=60, timeout_s=30.0)
     check_heads_between_the_cues(result, finite=5)
     assert np.mean([r["success"] for r in result.trials]) >= 0.5
+
+
+def test_the_mujoco_ants_carry_their_seeded_noise():
+    """With the default variability a MuJoCo trial differs from the exact protocol (variability off) and from
+    its neighbour; the home vector at release is the same as the kinematic trial's of the same seed."""
+    on = run("mujoco", 2, timeout_s=1.28, conflict_deg=60).trials
+    off = run("mujoco", 2, timeout_s=1.28, conflict_deg=60, variability="off").trials
+    kinematic = run("kinematic", 2, timeout_s=1.28, conflict_deg=60).trials
+    for noisy, exact, same_seed in zip(on, off, kinematic):
+        assert noisy["pi_cue_deg"] != exact["pi_cue_deg"]
+        assert noisy["pi_cue_deg"] == pytest.approx(same_seed["pi_cue_deg"], abs=1e-6)
+    assert on[0]["vision_cue_deg"] != on[1]["vision_cue_deg"]

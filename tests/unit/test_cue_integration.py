@@ -252,3 +252,49 @@ def test_figures_draw_the_cues_the_prediction_and_the_measured_means():
     assert table["predicted_deg"][1] == pytest.approx(circular_mean_deg(ninety))
     paths = {line.get_gid() for line in paths_figure(result, config).axes[0].lines}
     assert {f"trial {i}" for i in range(4)} <= paths
+
+
+# ---- variability and statistics (issue 22) ------------------------------------------------------------
+
+NOISE_SIZES = ("heading_noise_deg", "odometry_noise", "eye_noise", "turn_noise", "stride_noise_deg")
+ROW_KEYS = ("initial_heading_deg", "pi_cue_deg", "vision_cue_deg", "weight_pi", "predicted_heading_deg",
+            "time_to_nest_s", "pi_length_m", "vision_certainty")
+
+
+def same_rows(a, b):
+    """The rows' metrics equal bit for bit (NaN == NaN)."""
+    return np.array_equal(np.array([[r[k] for k in ROW_KEYS] for r in a], float),
+                          np.array([[r[k] for k in ROW_KEYS] for r in b], float), equal_nan=True)
+
+
+def test_variability_off_is_every_noise_source_at_zero_and_the_defaults_add_noise():
+    """``variability=off`` repeats the protocol exactly (the sizes at 0 give the same rows); the default noise
+    changes every trial: its home vector (compass and odometer noise on the outbound walk) first of all."""
+    off = run(3, timeout_s=3.2, variability="off").trials
+    zero = run(3, timeout_s=3.2, **dict.fromkeys(NOISE_SIZES, 0)).trials
+    assert same_rows(off, zero)
+    on = run(3, timeout_s=3.2).trials
+    for noisy, exact in zip(on, off):
+        assert noisy["pi_cue_deg"] != exact["pi_cue_deg"] and noisy["pi_length_m"] != exact["pi_length_m"]
+    exact = run(3, timeout_s=3.2, variability="off").timeseries["position_m"]
+    for size in NOISE_SIZES:  # each source alone changes the walks
+        alone = run(3, timeout_s=3.2, **dict.fromkeys(set(NOISE_SIZES) - {size}, 0)).timeseries["position_m"]
+        assert not np.array_equal(alone, exact, equal_nan=True), size
+
+
+def test_a_cue_list_is_cycled_over_whole_conflict_cycles_and_is_the_statistics_condition():
+    rows = run(6, timeout_s=1.92, cues="both,pi,vision", conflict_deg="0,90").trials
+    assert [(r["cues"], r["conflict_deg"]) for r in rows] == [("both", 0.0), ("both", 90.0), ("pi", 0.0),
+                                                              ("pi", 90.0), ("vision", 0.0), ("vision", 90.0)]
+    assert [r["weight_pi"] for r in rows[2:]] == [1.0, 1.0, 0.0, 0.0]  # one cue alone weighs all
+    assert all(0.0 < r["weight_pi"] < 1.0 for r in rows[:2])
+    scenario = load_scenario("cue-integration")
+    spec = scenario.statistics(apply_overrides(CueIntegrationConfig, ["cues=both,pi,vision"]))
+    assert (spec.condition, spec.reference, spec.circular) == ("cues", "both", ("initial_heading_rad",))
+    assert all(spec.condition in r and all(m in r for m in spec.metrics) for r in rows)
+    spec = scenario.statistics(CueIntegrationConfig())  # one cue: the conflict angles are compared, against 0°
+    assert (spec.condition, spec.reference) == ("conflict_deg", 0.0)
+    for row in rows:
+        assert row["initial_heading_rad"] == pytest.approx(np.radians(row["initial_heading_deg"]), nan_ok=True)
+    with pytest.raises(ConfigError, match="cues"):
+        apply_overrides(CueIntegrationConfig, ["cues=both,sky"])

@@ -16,15 +16,18 @@ from neuronav.config import apply_overrides
 from neuronav.errors import ConfigError
 from neuronav.runs.cli import main
 from neuronav.scenarios.locomotion.scenario import (
+    Locomotion,
     LocomotionConfig,
     StanceAdhesion,
     body_centre_m,
     build_gait,
     fell_over,
+    gaits,
     ground_height_m,
     run_trial,
     start_pose_kwargs,
     start_position_m,
+    trial_gait,
     trial_metrics,
 )
 from neuronav.spec.world import Ground
@@ -210,7 +213,8 @@ def test_video_is_an_mp4(tmp_path):
 
 @pytest.mark.parametrize("setting, fragment", [
     ("gait=gallop", "gait"), ("terrain=ice", "terrain"), ("adhesion_n=-5", "adhesion_n"),
-    ("turn=2", "turn"), ("duration_s=0", "duration_s"),
+    ("turn=2", "turn"), ("duration_s=0", "duration_s"), ("gait=tripod,gallop", "gallop"),
+    ("gait=tripod,tripod", "at most once"), ("turn_noise_sd=-1", "turn_noise_sd"), ("variability=maybe", "variability"),
 ])
 def test_bad_settings_are_config_errors(setting, fragment):
     with pytest.raises(ConfigError, match=fragment):
@@ -243,7 +247,7 @@ def test_every_setting_has_a_documented_range_or_choices():
     for f in dataclasses.fields(LocomotionConfig):
         meta = f.metadata
         assert meta.get("help"), f.name
-        if isinstance(f.default, bool):
+        if isinstance(f.default, bool) or f.name == "gait":  # gait: one or a comma list, checked by gaits()
             continue
         if isinstance(f.default, str):
             assert meta.get("choices"), f.name
@@ -288,3 +292,28 @@ def test_stance_adhesion_switches_off_the_pads_of_swinging_legs_only():
         assert pads["antenna_L_tip"] == pads["antenna_R_tip"] == 1.0
         gait.step(0.0, 0.26)
     assert min(p.sum() for p in written) < len(sites)  # some pads were off some of the time
+
+
+# -- conditions and variability (issue 22) ------------------------------------------------------------
+def test_a_gait_list_is_walked_by_seed_and_named_in_each_row():
+    config = apply_overrides(LocomotionConfig, ["gait=ik,wave"])
+    assert gaits(config) == ("ik", "wave")
+    assert [trial_gait(config, seed) for seed in range(5)] == ["ik", "wave", "ik", "wave", "ik"]
+    spec = Locomotion().statistics(config)
+    assert (spec.condition, spec.reference) == ("gait", "ik")
+    pytest.importorskip("mujoco")
+    rows = Locomotion().run(replace(config, duration_s=0.16), backend="mujoco", trials=2, seed=3).trials
+    assert [row["gait"] for row in rows] == ["wave", "ik"]
+
+
+@pytest.mark.parametrize("backend", ["mujoco", "pybullet"])
+def test_motor_noise_is_what_makes_walks_of_one_start_differ(backend):
+    """Without the yaw jitter two seeds start alike on flat ground: the exact command walks them alike,
+    the default motor noise (per gait cycle) apart."""
+    still = {"initial_yaw_jitter_rad": 0.0, "duration_s": 1.28}
+    off = [walk(backend, seed, variability="off", **still)[0] for seed in (1, 3)]
+    on = [walk(backend, seed, **still)[0] for seed in (1, 3)]
+    key = ("forward_speed_m_s", "lateral_drift_m", "turn_rate_rad_s", "body_height_var_m2")
+    assert [off[0][k] for k in key] == [off[1][k] for k in key]
+    assert [on[0][k] for k in key] != [on[1][k] for k in key]
+    assert all(abs(on[i][k] - off[i][k]) > 0 for i in range(2) for k in key[:2])

@@ -155,9 +155,10 @@ def test_largest_record_every_still_records_and_draws(tmp_path, capsys):
 @pytest.mark.parametrize("velocity_input", ["pose", "measured"])
 def test_velocity_input_chooses_what_the_embodied_cx_is_fed(velocity_input):
     """i2bot protocol on the kinematic unicycle: ``measured`` feeds the velocity sensor itself, ``pose``
-    the displacement per gait cycle (which differs from the instantaneous velocity while turning)."""
+    the displacement per gait cycle (which differs from the instantaneous velocity while turning);
+    without the odometry noise (variability=off), which scales what is fed."""
     result = run(1, seed=3, protocol="i2bot", outbound_s=20.0, homing_timeout_s=5.0,
-                 velocity_input=velocity_input)
+                 velocity_input=velocity_input, variability="off")
     fed, measured = result.timeseries["fed_velocity"][0], result.timeseries["measured_velocity"][0]
     rows = np.isfinite(fed).all(axis=1) & np.isfinite(measured).all(axis=1)
     assert rows.sum() > 20
@@ -188,3 +189,65 @@ def test_memory_estimate_refuses_a_batch_that_cannot_fit_and_admits_chunks_that_
     assert "--chunk-size" in done.stderr and "GiB" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
     assert not out.exists()
+
+
+# -- variability (issue 22) ---------------------------------------------------------------------------
+EMBODIED_SHORT = {"protocol": "i2bot", "outbound_s": 6.4, "homing_timeout_s": 6.4}
+NOISE_SIZES = ("compass_noise_deg", "odometry_noise_fraction", "turn_noise_sd", "stride_noise_fraction")
+
+
+def metric_rows(result, timing=("real_time_factor",)):
+    """Each trial's metrics (their reprs, so that NaN equals NaN), without the trial's number and seed."""
+    return [tuple((k, repr(v)) for k, v in row.items() if k not in ("trial", "seed", *timing)) for row in result.trials]
+
+
+def same_path(a, b):
+    return a.shape == b.shape and np.allclose(a, b, equal_nan=True)
+
+
+def test_embodied_trials_differ_and_the_noise_is_what_variability_off_removes():
+    on = run(3, seed=5, **EMBODIED_SHORT)
+    rows = metric_rows(on)
+    assert len(set(rows)) == len(rows)  # no two trials alike
+    off = run(3, seed=5, variability="off", **EMBODIED_SHORT)
+    assert metric_rows(off) != rows  # the noise changes the walks ...
+    silent = run(3, seed=5, **EMBODIED_SHORT, **dict.fromkeys(NOISE_SIZES, 0.0))
+    assert metric_rows(silent) == metric_rows(off)  # ... and off is exactly every source at 0
+
+
+@pytest.mark.parametrize("source", NOISE_SIZES)
+def test_each_embodied_noise_source_changes_the_walk(source):
+    quiet = dict.fromkeys(NOISE_SIZES, 0.0)
+    base = run(1, seed=2, **EMBODIED_SHORT, **quiet).timeseries["position_m"][0]
+    noisy = run(1, seed=2, **EMBODIED_SHORT, **{**quiet, source: 2.0 if source == "compass_noise_deg" else 0.3})
+    assert not same_path(noisy.timeseries["position_m"][0], base)
+
+
+def test_embodied_noise_of_a_trial_depends_on_its_seed_alone():
+    from neuronav.scenarios.path_integration.embodied import homing_noise
+
+    config = apply_overrides(PathIntegrationConfig, EMBODIED_SHORT)
+    batch, alone = homing_noise(config, [4, 5, 6], 20), homing_noise(config, [5], 20)
+    for source, rows in batch.items():
+        np.testing.assert_array_equal(rows[1], alone[source][0])
+        assert rows.std() > 0
+    # Each source its own stream: the compass errors are not the odometry errors rescaled.
+    odometry = batch["odometry"][0] / config.odometry_noise_fraction
+    assert not np.allclose(batch["compass"][0] / np.radians(config.compass_noise_deg), odometry)
+    assert homing_noise(apply_overrides(PathIntegrationConfig, {"variability": "off"}), [5], 20) is None
+
+
+def test_point_agent_trials_differ_in_either_setting_and_variability_does_not_touch_them():
+    """stone2017's own protocol draws each trial's route and CX noise from its seed."""
+    on, off = run(4, outbound_steps=200, inbound_steps=200), run(4, outbound_steps=200, inbound_steps=200,
+                                                                   variability="off")
+    assert len(set(metric_rows(on))) == 4
+    assert metric_rows(on) == metric_rows(off)
+
+
+def test_statistics_describe_one_group_of_every_row_metric():
+    scenario = load_scenario("path-integration")
+    spec = scenario.statistics(PathIntegrationConfig())
+    assert spec.condition is None and spec.success == "success"
+    rows = run(2, **EMBODIED_SHORT).trials
+    assert all(spec.success in row for row in rows)

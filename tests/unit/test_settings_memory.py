@@ -15,16 +15,16 @@ BIG_SWARM = {"ants": 100_000, "outbound_s": 3600.0, "homing_timeout_s": 3600.0}
 
 def test_a_swarm_too_big_for_the_memory_is_refused_naming_its_settings(tmp_path, monkeypatch):
     """The issue's command: 100,000 ants for 2 h, all in range, met a 16.8 GiB MemoryError (the
-    float64 trajectories alone); the estimate says about 43 GiB."""
+    float64 trajectories alone); the estimate says about 101 GiB (with variability's noise arrays)."""
     monkeypatch.setattr("neuronav.runs.sweep.available_memory_bytes", lambda: 16 * GiB)
     out = tmp_path / "out"
     with pytest.raises(ConfigError) as caught:
         plan("swarm-homing", trials=1, overrides=BIG_SWARM, out_dir=out)
     message = str(caught.value)
     assert "\n" not in message and not out.exists()
-    for fragment in ("ants=100000", "outbound_s + homing_timeout_s = 7200 s", "need about 42.", "16.0 GiB available"):
+    for fragment in ("ants=100000", "outbound_s + homing_timeout_s = 7200 s", "need about 101.", "16.0 GiB available"):
         assert fragment in message, message
-    # The defaults (1000 ants, 2 min) need about 8 MB: planned as before.
+    # The defaults (1000 ants, 2 min) need about 27 MB: planned as before.
     plan("swarm-homing", trials=1, out_dir=tmp_path / "small")
 
 

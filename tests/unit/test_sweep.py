@@ -385,15 +385,15 @@ def test_no_module_of_the_run_stack_imports_one_above_it():
     import ast
     from pathlib import Path
 
-    import neuronav
+    import neuronav.runs
 
     order = ["runner", "sweep", "assembly", "executors", "trials"]
-    root = Path(neuronav.__file__).parent
+    root = Path(neuronav.runs.__file__).parent
     for i, module in enumerate(order):
         tree = ast.parse((root / f"{module}.py").read_text())
         imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module}
         imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
-        above = {f"neuronav.{m}" for m in order[:i]}
+        above = {f"neuronav.runs.{m}" for m in order[:i]}
         assert not imported & above, (module, imported & above)
 
 
