@@ -22,6 +22,10 @@ position is (x, y, 0) + pos.x f + pos.y l + pos.z up and its frame [f l up] @ R(
 ``set_scene_yaw`` turns the world's objects about the vertical axis through the origin (the ground
 stays), as on the physics backends.
 
+Head: ``head_pos`` (N, 3) m is (x, y, ``PointAgents.head_height_m``) and ``head_quat`` (N, 4) the turn about
+z from the heading (the head's +x is the forward direction); ``cast_rays`` tests rays, stacked over
+agents, against the world's objects and the ground plane z = 0 (:func:`neuronav.senses.raycast.first_hit_distance`).
+
 Antennae (:class:`~neuronav.spec.world.PointAntenna`, A per agent): their tips are the odour and wind
 sites, read as ``odour_sites`` / ``wind_sites`` (N, A, 3) m, ``odour`` (N, A, K) and ``wind``
 (N, A, 2) m/s from the world's chemistry (:mod:`neuronav.senses.chemistry`) in one array operation over
@@ -129,6 +133,8 @@ class KinematicBackend(BackendBase):
             SensorSpec("velocity", (2,), "units/step"),
             SensorSpec("position", (2,), "units"),
             SensorSpec("speed", (1,), "units/step"),
+            SensorSpec("head_pos", (3,), "m"),
+            SensorSpec("head_quat", (4,), ""),
         ),
         motors=(
             MotorSpec("rotation", (1,), "rad/step"),
@@ -270,6 +276,10 @@ class KinematicBackend(BackendBase):
                 out[name] = self.position.copy()
             elif name == "speed":
                 out[name] = np.linalg.norm(self.velocity, axis=1)[:, None]
+            elif name == "head_pos":
+                out[name] = np.column_stack([self.position, np.full(self.batch, float(self._agents.head_height_m))])
+            elif name == "head_quat":
+                out[name] = self.head_quats()
             elif name in ("odour_sites", "wind_sites"):
                 out[name] = self.antenna_tips()
             elif name == "odour":
@@ -300,6 +310,26 @@ class KinematicBackend(BackendBase):
             return samples
         # Each agent's k x k samples per pixel averaged, as every backend does (neuronav.senses.vision).
         return np.stack([average_samples(image, spec.supersample) for image in samples])
+
+    def head_quats(self) -> np.ndarray:
+        """Every agent's head rotation (N, 4) (w, x, y, z), w >= 0: the turn about z that takes +x to the
+        forward direction (sin h, cos h, 0), i.e. by π/2 - h counter-clockwise."""
+        yaw = np.pi / 2 - self.heading
+        yaw = yaw - 2.0 * np.pi * np.round(yaw / (2.0 * np.pi))  # in [-π, π]: cos(yaw / 2) >= 0
+        zero = np.zeros_like(yaw)
+        return np.stack([np.cos(yaw / 2.0), zero, zero, np.sin(yaw / 2.0)], axis=1)
+
+    def cast_rays(self, origins_m, directions, max_distance_m: float = 50.0) -> np.ndarray:
+        """Distance (m) along each ray to the first of the world's objects (at the scene yaw) or the ground
+        plane z = 0 seen from above, ``np.inf`` for none within ``max_distance_m``: analytic intersections
+        (:func:`neuronav.senses.raycast.first_hit_distance`), one array operation for all rays (the rays
+        of many agents stacked, (N, 3) each; directions are normalised). The agents are points: nothing
+        of theirs blocks a ray. A ConfigError names a bad argument (:meth:`BackendBase._check_rays`)."""
+        from neuronav.senses.raycast import first_hit_distance  # lazily, as the cameras' ray caster
+
+        self._require()
+        origins, unit, far = self._check_rays(origins_m, directions, max_distance_m)
+        return first_hit_distance(self.world, origins, unit, far, self._scene_yaw_rad)
 
     def antenna_tips(self) -> np.ndarray:
         """Every agent's antenna tips in the world, (N, A, 3) m, each turned by its ``antenna_yaw``."""

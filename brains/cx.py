@@ -26,6 +26,9 @@ CPU4_GAIN = 0.0025
 CPU4_LEAK = 0.125
 HEADING_PORT = SensorSpec("heading", (1,), "rad")
 VELOCITY_PORT = SensorSpec("velocity", (2,), "units/step")
+# The body-frame displacement (forward, left) per step: what a stride or optic-flow odometer measures,
+# with no heading needed (sky_compass.sky_stone2017's TN cells read it).
+BODY_VELOCITY_PORT = SensorSpec("body_velocity", (2,), "units/step")
 MOTOR_PORT = MotorSpec("motor", (1,), "rad")
 
 
@@ -110,12 +113,29 @@ def stone2017(noise: float = 0.1, memory_gain: float = CPU4_GAIN, memory_leak: f
         shape (2,)); writes ``motor`` (rad to add to the heading, shape (1,)).
     """
     circuit = heading_circuit(noise, name="stone2017")
+    memory_populations(circuit, noise, memory_gain, memory_leak, memory_initial, tn_offset_rad)
+    return circuit
+
+
+def memory_populations(circuit: Circuit, noise: float, memory_gain: float, memory_leak: float,
+                       memory_initial: float, tn_offset_rad: float, body_frame: bool = False) -> None:
+    """Add TN1, TN2, CPU4 and the steering (Pontine, CPU1, ``motor``) to a circuit that has TB1 (8 cells).
+
+    Parameters as in :func:`stone2017`. ``body_frame`` False: the TN cells read ``heading`` and the
+    world-frame ``velocity`` (stone2017); True: they read :data:`BODY_VELOCITY_PORT`, the body-frame
+    (forward, left) displacement per step, so the circuit needs no true heading.
+    """
     noisy = dict(noise_std=noise, clip=(0.0, 1.0))
     # Each TN cell receives the speed along heading ± tn_offset: the body-frame velocity
     # (forward, rightward) through weights (cos o, sin o).
-    circuit.add_input("body_velocity", 2, ports=[HEADING_PORT, VELOCITY_PORT], encoder="body_velocity")
     offsets = np.array([tn_offset_rad, -tn_offset_rad])
     tn_directions = np.stack([np.cos(offsets), np.sin(offsets)], axis=1)
+    if body_frame:
+        # (forward, left): left = -rightward.
+        circuit.add_input("body_velocity", 2, ports=[BODY_VELOCITY_PORT], encoder="identity")
+        tn_directions = tn_directions * np.array([1.0, -1.0])
+    else:
+        circuit.add_input("body_velocity", 2, ports=[HEADING_PORT, VELOCITY_PORT], encoder="body_velocity")
     circuit.add_population("TN1", 2, bias=0.5, **noisy)
     circuit.add_population("TN2", 2, **noisy)
     circuit.connect("body_velocity", "TN1", weights=tn_directions, gain=0.5, sign=-1)
@@ -130,7 +150,6 @@ def stone2017(noise: float = 0.1, memory_gain: float = CPU4_GAIN, memory_leak: f
     circuit.connect("TN2", "CPU4", weights=tn_to_cpu4)
     circuit.connect("TB1", "CPU4", rule="tile", sign=-1)
     steering_populations(circuit, goal="CPU4", noise=noise)
-    return circuit
 
 
 def decode_home_vector(cpu4: np.ndarray, memory_gain: float = CPU4_GAIN) -> tuple[np.ndarray, np.ndarray]:

@@ -57,6 +57,9 @@ from neuronav.senses.vision import FAR_M, NEAR_M, View  # noqa: E402
 from neuronav.spec.body import BodySpec, Camera, quat_to_matrix  # noqa: E402
 from neuronav.spec.world import World  # noqa: E402
 
+# Rays see the world's geoms (group 0) only: not the body (BODY_GROUP) nor the drawn-only planes (HORIZON_GROUP).
+_WORLD_GEOMS = np.array([1, 0, 0, 0, 0, 0], dtype=np.uint8)
+
 _FATAL_WARNINGS = {
     mujoco.mjtWarning.mjWARN_BADQPOS: "bad joint position (NaN, inf or huge)",
     mujoco.mjtWarning.mjWARN_BADQVEL: "bad velocity (NaN, inf or huge)",
@@ -90,6 +93,8 @@ class MujocoBackend(ArticulatedBackend):
     """
 
     engine = "mujoco"
+
+    cull_rays = False  # mj_multiRay culls by bounding spheres itself (see _cast_rays)
 
     def __init__(self, timestep_s: float = 0.002) -> None:
         super().__init__(timestep_s)
@@ -291,6 +296,7 @@ class MujocoBackend(ArticulatedBackend):
             self._site_of_geom[geom_ids] = index
             self._site_geoms.append(geom_ids)
         self._camera_segments = {c.name: int(ids(mujoco.mjtObj.mjOBJ_BODY, [c.segment])[0]) for c in body.cameras}
+        self._segment_ids: dict[str, int] = {}
         self._scene_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, SCENE_BODY)
         # The scenery: the world body and the objects' mocap body (reset's overlap check is between it and the body).
         self._scenery = np.isin(np.arange(model.nbody), [0, self._scene_body])
@@ -371,6 +377,39 @@ class MujocoBackend(ArticulatedBackend):
     def _root_pose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         data, root = self.data, self._root
         return data.xpos[root], data.xquat[root], data.xmat[root].reshape(3, 3)
+
+    def _segment_pose(self, segment: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        body_id = self._segment_ids.get(segment)
+        if body_id is None:
+            body_id = self._segment_ids[segment] = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, segment)
+        data = self.data
+        return data.xpos[body_id].copy(), data.xquat[body_id].copy(), data.xmat[body_id].reshape(3, 3).copy()
+
+    def _cast_rays(self, origins: np.ndarray, directions: np.ndarray, max_distance_m: float,
+                   start_m: np.ndarray, stop_m: np.ndarray) -> np.ndarray:
+        """``mj_multiRay`` once per distinct origin (from the origins, to ``max_distance_m``: ``start_m`` and
+        ``stop_m`` are not needed), against the world's geoms only (geom group 0: the body's geoms are in
+        ``BODY_GROUP``, the drawn-only horizon and trail planes in ``HORIZON_GROUP``). MuJoCo culls by
+        bounding spheres itself, faster than the shared test (``cull_rays`` is off): 160 rays among 80
+        objects cost about 0.1 ms."""
+        if (origins == origins[0]).all():  # one origin (an agent's rays): one call
+            return self._multi_ray(origins[0], directions, max_distance_m)
+        distances = np.full(origins.shape[0], np.inf)
+        # the rays of each distinct origin together
+        inverse = np.unique(origins, axis=0, return_inverse=True)[1].reshape(-1)
+        order = np.argsort(inverse, kind="stable")
+        for rows in np.split(order, np.flatnonzero(np.diff(inverse[order])) + 1):
+            distances[rows] = self._multi_ray(origins[rows[0]], directions[rows], max_distance_m)
+        return distances
+
+    def _multi_ray(self, origin: np.ndarray, directions: np.ndarray, max_distance_m: float) -> np.ndarray:
+        """``mj_multiRay`` of the rays (K, 3) from one origin: hit distances (K,), ``np.inf`` for none."""
+        count = directions.shape[0]
+        found = np.empty(count)
+        geom_ids = np.empty(count, dtype=np.int32)
+        mujoco.mj_multiRay(self.model, self.data, origin, np.ascontiguousarray(directions).reshape(-1), _WORLD_GEOMS,
+                           1, -1, geom_ids, found, None, count, max_distance_m)
+        return np.where((geom_ids >= 0) & (found >= 0) & (found <= max_distance_m), found, np.inf)
 
     def _root_velocity(self) -> tuple[np.ndarray, np.ndarray]:
         velocity = np.zeros(6)  # (angular, linear) of the root frame, world axes

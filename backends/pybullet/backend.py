@@ -111,6 +111,12 @@ PAD_DAMPING_N_S_M = 500.0
 # Where the vision client's copy of the body waits while cameras must not see it: under the ground
 # and past the far plane.
 PARKED_POS_M = (0.0, 0.0, -1e4)
+# cast_rays: rays per rayTestBatch call (PyBullet's batch limit is larger); a ray that hits the body is
+# cast again from RAY_BODY_STEP_M past the hit, at most RAY_BODY_PASSES times in all.
+RAY_BATCH = 8192
+RAY_MASK = ~1  # every collision group but Bullet's DefaultFilter (1), the group of a body's moving links
+RAY_BODY_STEP_M = 1e-5
+RAY_BODY_PASSES = 64
 
 def _xyzw(quat_wxyz) -> list[float]:
     w, x, y, z = quat_wxyz
@@ -589,6 +595,48 @@ class PybulletBackend(ArticulatedBackend):
         quat = quat_product(np.array([w, x, y, z]), self._base_inertial_conj)
         rot = quat_to_matrix(quat)
         return np.asarray(com_pos) - rot @ self._base_inertial_pos, quat, rot
+
+    def _segment_pose(self, segment: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The segment's frame: its URDF link's frame (the one cameras sit in, :meth:`_frames`)."""
+        link = self._link_index[self._urdf.segment_link[segment]]
+        if link == -1:
+            return self._root_pose()
+        state = pb.getLinkState(self._robot, link, computeForwardKinematics=1, physicsClientId=self._client)
+        x, y, z, w = state[5]
+        return np.asarray(state[4], float), np.array([w, x, y, z], float), _rot(state[5])
+
+    def _cast_rays(self, origins: np.ndarray, directions: np.ndarray, max_distance_m: float,
+                   start_m: np.ndarray, stop_m: np.ndarray) -> np.ndarray:
+        """``rayTestBatch`` against the world's bodies: the ray's collision mask leaves out Bullet's
+        default group (the body's moving links; the world's bodies have no mass: the static group). A ray
+        that still meets the body (a link that is static: a fixed base) is cast again from just past that
+        hit, at most ``RAY_BODY_PASSES`` times. Each ray is cast from its ``start_m`` to its ``stop_m`` only:
+        Bullet's ray test costs about ten times more for a ray that starts among the body's links
+        (measured: 120 rays from the desert ant's head, 0.58 ms; from 5 m above it, 0.06 ms), and a long
+        ray is tested against every object whose box it crosses, even past its first hit."""
+        cid, robot = self._client, self._robot
+        distances = np.full(origins.shape[0], np.inf)
+        start = np.array(start_m, float)  # how far along its ray each pending ray starts
+        pending = np.arange(origins.shape[0])
+        for _ in range(RAY_BODY_PASSES):
+            if pending.size == 0:
+                break
+            still = []
+            for first in range(0, pending.size, RAY_BATCH):
+                rows = pending[first:first + RAY_BATCH]
+                begin = origins[rows] + start[rows, None] * directions[rows]
+                end = origins[rows] + stop_m[rows, None] * directions[rows]
+                results = pb.rayTestBatch(begin.tolist(), end.tolist(), collisionFilterMask=RAY_MASK,
+                                          physicsClientId=cid)
+                handles = np.array([result[0] for result in results])
+                along = start[rows] + np.array([result[2] for result in results]) * (stop_m[rows] - start[rows])
+                scene = (handles >= 0) & (handles != robot)
+                distances[rows[scene]] = along[scene]
+                body = handles == robot
+                start[rows[body]] = along[body] + RAY_BODY_STEP_M
+                still.append(rows[body][start[rows[body]] < stop_m[rows[body]]])
+            pending = np.concatenate(still)
+        return distances
 
     def _root_velocity(self) -> tuple[np.ndarray, np.ndarray]:
         cid, robot = self._client, self._robot

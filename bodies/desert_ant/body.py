@@ -44,6 +44,7 @@ from neuronav.spec.body import BodySpec, Camera, Geom, Joint, Segment, Site, axi
 LEGS = ("FL", "ML", "HL", "FR", "MR", "HR")
 LEG_JOINTS = ("ThCz", "ThCx", "CTr", "FTi", "TiTa")
 MASS_KEYS = ("thorax", "head", "gaster", "antenna", "front_leg", "middle_leg", "hind_leg")
+LEG_SEGMENTS = ("coxa", "femur", "tibia", "tarsus")  # the lengths each leg's segment factors scale, in order
 
 # -- docs/parameters.md §1 (I2Bot coordinates: head toward -x, |y|; lengths joint to joint) -----------------
 _PAIRS = {
@@ -206,6 +207,21 @@ def _leg_factors(leg_length_factors) -> dict[str, float]:
     return {leg: factor for leg in LEGS}
 
 
+def _segment_factors(leg_segment_factors) -> tuple[float, float, float, float] | None:
+    """``{segment: factor}`` for some of ``LEG_SEGMENTS`` as a factor per segment (None: no change)."""
+    if leg_segment_factors is None:
+        return None
+    if not isinstance(leg_segment_factors, Mapping):
+        raise ConfigError("desert_ant: leg_segment_factors must be a mapping segment -> factor "
+                          f"(segments: {', '.join(LEG_SEGMENTS)}), got {leg_segment_factors!r}")
+    unknown = sorted(set(leg_segment_factors) - set(LEG_SEGMENTS))
+    if unknown:
+        raise ConfigError(f"desert_ant: leg_segment_factors has unknown segment {unknown[0]!r}; "
+                          f"allowed: {', '.join(LEG_SEGMENTS)}")
+    return tuple(_check_positive(f"leg_segment_factors[{segment!r}]", leg_segment_factors.get(segment, 1.0))
+                 for segment in LEG_SEGMENTS)
+
+
 def _masses(masses_kg, scale: float, antenna_mass_kg: float) -> dict[str, float]:
     masses = {key: value * scale**3 for key, value in MASSES_KG.items()}
     masses["antenna"] = antenna_mass_kg
@@ -237,7 +253,8 @@ def _from_i2bot(point) -> tuple[float, float, float]:
 # -- the body ----------------------------------------------------------------------------------------
 def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: float | None = None,
                masses_kg: Mapping[str, float] | None = None, standing_height_m: float | None = None,
-               antenna_yaw_rad: float | None = None, name: str = "desert_ant") -> BodySpec:
+               antenna_yaw_rad: float | None = None, name: str = "desert_ant",
+               leg_segment_factors: Mapping[str, float] | None = None) -> BodySpec:
     """The Cataglyphis fortis body at ×100 scale (0.1 m in simulation ≈ 1 mm on the ant).
 
     Parameters
@@ -248,6 +265,12 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
     leg_length_factors : float or dict, optional
         One factor for every leg, or ``{leg: factor}`` for some of ``LEGS``; multiplies the coxa,
         femur, tibia and tarsus lengths (radii kept; the leg's mass follows its volume).
+    leg_segment_factors : dict, optional
+        ``{segment: factor}`` for some of ``LEG_SEGMENTS`` (coxa, femur, tibia, tarsus), the same on
+        every leg, multiplying that segment's length on top of ``leg_length_factors`` (radii kept, mass
+        by volume, standing height re-solved as for ``leg_length_factors``). For manipulations that
+        change part of a leg, e.g. Wittlinger et al. 2006's stumps (tibia halved, tarsus gone):
+        :mod:`neuronav.bodies.desert_ant.manipulations`.
     antenna_length_m : float, optional
         Scape + funiculus length of each antenna (default 0.541·scale, split 0.224 : 0.317).
     masses_kg : dict, optional
@@ -273,6 +296,7 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
     """
     scale = _check_positive("scale", scale)
     factors = _leg_factors(leg_length_factors)
+    segment_factors = _segment_factors(leg_segment_factors)
     antenna_total = ANTENNA["scape"] + ANTENNA["funiculus"]
     antenna_length = (antenna_total * scale if antenna_length_m is None
                       else _check_positive("antenna_length_m", antenna_length_m))
@@ -295,6 +319,8 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
         anchor_z = pair["anchor"][2] * scale
         published = tuple(v * scale for v in pair["lengths"])
         actual = tuple(v * factors[leg] for v in published)
+        if segment_factors is not None:
+            actual = tuple(v * f for v, f in zip(actual, segment_factors))
         tilt0 = _solve_tilt(STANDING_HEIGHT_M * scale - claw_r, anchor_z, published, pair["rest"])
         default_depths[leg] = _claw_depth(tilt0, anchor_z, actual, pair["rest"])
         legs[leg] = (pair, anchor_z, actual)

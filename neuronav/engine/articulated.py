@@ -17,12 +17,14 @@ rules and checks, so that an engine module only translates them into its engine'
 - the follow camera's framing (:func:`follow_view`): the same view on every engine;
 - body cameras (:mod:`neuronav.senses.vision`): each is a sensor (its image in grey), composed here from
   the flat-shaded planar views an engine renders (a spherical camera from cube faces), with the
-  World's sky painted where nothing was hit; ``set_scene_yaw`` turns the world's objects.
+  World's sky painted where nothing was hit; ``set_scene_yaw`` turns the world's objects;
+- ``head_pos`` / ``head_quat``: the pose of the segment named ``head`` (:data:`HEAD_SEGMENT`), or the
+  root's for a body without one; ``cast_rays``' checks (the engine casts checked rays past the body).
 
 Engine hooks (each backend implements them): ``_load_engine``, ``_reset_engine``, ``_raise_root``,
-``_penetration_m``, ``_root_pose``, ``_root_velocity``, ``_joint_state``, ``_joint_torque``,
-``_contact_forces``, ``_site_positions``, ``_set_joint_targets``, ``_queue_force``,
-``_render_follow``, ``_camera_frame``, ``_render_views``, ``_turn_scene`` and ``_require``.
+``_penetration_m``, ``_root_pose``, ``_segment_pose``, ``_root_velocity``, ``_joint_state``,
+``_joint_torque``, ``_contact_forces``, ``_site_positions``, ``_set_joint_targets``, ``_queue_force``,
+``_render_follow``, ``_camera_frame``, ``_render_views``, ``_turn_scene``, ``_cast_rays`` and ``_require``.
 """
 
 from __future__ import annotations
@@ -43,6 +45,7 @@ from neuronav.engine.backend import (
 )
 from neuronav.errors import ConfigError, PortError
 from neuronav.senses.chemistry import Chemistry
+from neuronav.senses.raycast import bounds_span_m, object_bounds
 from neuronav.senses.vision import View, camera_views, compose_image, cube_lookup, grey
 from neuronav.spec.body import BodySpec, Camera, Geom, quat_to_matrix
 from neuronav.spec.ports import MotorSpec, SensorSpec
@@ -64,6 +67,10 @@ FOLLOW_MARGIN = 1.25
 # camera never goes below FOLLOW_MIN_EYE_Z_M (it would look through the floor from underneath).
 FOLLOW_WALL_DEG = 70.0
 FOLLOW_MIN_EYE_Z_M = 0.05
+# The segment whose pose ``head_pos`` / ``head_quat`` report (a body without it: the root's).
+HEAD_SEGMENT = "head"
+# cast_rays: the ground is never hit above its highest point plus this (m) nor below its lowest less this.
+RAY_GROUND_MARGIN_M = 0.01
 
 
 # What a physics backend holding several ants reads for each (the agent axis first, (N, ...)).
@@ -271,6 +278,9 @@ class ArticulatedBackend(BackendBase):
     """
 
     engine = "articulated"
+    # Whether cast_rays tests the rays against the objects' bounding spheres before the engine casts them
+    # (worth it where the engine's own ray test costs more than that test, e.g. from inside the body).
+    cull_rays = True
 
     def __init__(self, timestep_s: float) -> None:
         self._timestep_s = check_timestep(self.engine, timestep_s)
@@ -313,6 +323,8 @@ class ArticulatedBackend(BackendBase):
         self._segments = {s.name for s in body.segments}
         self._cameras = {c.name: c for c in body.cameras}
         self._scene_yaw_rad = 0.0
+        self._ground_heights_m = None
+        self._ray_bounds = None
         self.reset()
 
     def reset(self, seed: int | None = None, position_m=(0.0, 0.0), yaw_rad: float = 0.0,
@@ -370,6 +382,12 @@ class ArticulatedBackend(BackendBase):
             if name == "heading":
                 return np.array([heading_rad(rotation)])
             return {"body_pos": pos, "body_quat": canonical_quat(quat), "position": pos[:2]}[name]
+        if name in ("head_pos", "head_quat"):
+            if "head" not in cache:
+                cache["head"] = (self._segment_pose(HEAD_SEGMENT) if HEAD_SEGMENT in self._segments
+                                 else self._root_pose())
+            pos, quat, _ = cache["head"]
+            return pos if name == "head_pos" else canonical_quat(quat)
         if name in ("body_linvel", "body_angvel", "velocity"):
             if "velocity" not in cache:
                 cache["velocity"] = self._root_velocity()
@@ -435,6 +453,65 @@ class ArticulatedBackend(BackendBase):
                               f"segment of that name; sites: {', '.join(sorted(self._sites)) or 'none'}; "
                               f"segments: {', '.join(s.name for s in spec.segments)}")
 
+    def cast_rays(self, origins_m, directions, max_distance_m: float = 50.0) -> np.ndarray:
+        """Distance (m) along each ray to the first surface of the world, ``np.inf`` for none within
+        ``max_distance_m``; the body's own geoms never block a ray (see :mod:`neuronav.engine.backend`).
+
+        Parameters
+        ----------
+        origins_m, directions : array_like, shape (N, 3)
+            World frame; directions are normalised here.
+        max_distance_m : float
+
+        Returns
+        -------
+        ndarray, shape (N,)
+
+        Raises
+        ------
+        ConfigError
+            Shapes other than (N, 3), non-finite values, a zero direction or a distance not > 0.
+        """
+        self._require()
+        origins, unit, far = self._check_rays(origins_m, directions, max_distance_m)
+        distances = np.full(origins.shape[0], np.inf)
+        # Only rays that can reach the world are cast, each over the stretch where it may hit something
+        # (start, stop): the ground's heights and, where the engine wants it (cull_rays), the objects' bounds.
+        if self.world.objects and not self.cull_rays:
+            start, stop = np.zeros(origins.shape[0]), np.full(origins.shape[0], far)
+        else:
+            start, stop = self._ground_span_m(origins, unit, far)
+        if self.world.objects and self.cull_rays:
+            if self._ray_bounds is None:
+                self._ray_bounds = object_bounds(self.world.objects)
+            enter, leave = bounds_span_m(self._ray_bounds, origins, unit, far, self._scene_yaw_rad)
+            start, stop = np.minimum(start, enter), np.maximum(stop, leave)
+        stop = np.minimum(stop, far)
+        rows = np.flatnonzero(start <= far)
+        if rows.size == origins.shape[0]:
+            return self._cast_rays(origins, unit, far, start, stop)
+        if rows.size:
+            distances[rows] = self._cast_rays(origins[rows], unit[rows], far, start[rows], stop[rows])
+        return distances
+
+    def _ground_span_m(self, origins: np.ndarray, unit: np.ndarray, far: float) -> tuple[np.ndarray, np.ndarray]:
+        """The stretch of each ray where the ground may be hit: between the terrain's highest and lowest
+        points (widened by ``RAY_GROUND_MARGIN_M``) going down, from 0 from below the highest; (inf, -inf)
+        going up from above it; (0, far) on a wall world."""
+        count = origins.shape[0]
+        if self.world.ground.kind == "wall":
+            return np.zeros(count), np.full(count, far)
+        if self._ground_heights_m is None:
+            heights = self.world.ground.heights_m()
+            self._ground_heights_m = (float(heights.max()) + RAY_GROUND_MARGIN_M,
+                                      float(heights.min()) - RAY_GROUND_MARGIN_M)
+        top, bottom = self._ground_heights_m
+        above, down = origins[:, 2] - top, unit[:, 2] < 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            start = np.where(above <= 0, 0.0, np.where(down, above / -unit[:, 2], np.inf))
+            stop = np.where(down, (origins[:, 2] - bottom) / -unit[:, 2], np.where(above <= 0, far, -np.inf))
+        return start, stop
+
     def render(self, camera: str) -> np.ndarray:
         """A uint8 (H, W, 3) image from a body camera, or ``"follow"`` (:func:`follow_view`)."""
         self._require()
@@ -484,6 +561,11 @@ class ArticulatedBackend(BackendBase):
         """The root frame's position (3,), quaternion (4,) (w, x, y, z) and rotation (3, 3)."""
         raise NotImplementedError
 
+    def _segment_pose(self, segment: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # pragma: no cover
+        """Segment ``segment``'s frame (as :class:`BodySpec` declares it, joints applied): its position (3,),
+        quaternion (4,) (w, x, y, z) and rotation (3, 3), world frame."""
+        raise NotImplementedError
+
     def _root_velocity(self) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover
         """The root frame origin's linear (3,) and angular (3,) velocity, world axes."""
         raise NotImplementedError
@@ -508,6 +590,13 @@ class ArticulatedBackend(BackendBase):
         raise NotImplementedError
 
     def _render_follow(self, view: FollowView) -> np.ndarray:  # pragma: no cover
+        raise NotImplementedError
+
+    def _cast_rays(self, origins: np.ndarray, directions: np.ndarray,  # pragma: no cover
+                   max_distance_m: float, start_m: np.ndarray, stop_m: np.ndarray) -> np.ndarray:
+        """Checked rays (N >= 1, unit directions): first-hit distances (N,) from the origins, inf for none
+        within ``max_distance_m``, the body left out; nothing of the world lies on a ray before its
+        ``start_m`` (N,) nor after its ``stop_m`` (N,) (an engine may cast over that stretch only)."""
         raise NotImplementedError
 
     def _camera_frame(self, camera: Camera) -> tuple[np.ndarray, np.ndarray]:  # pragma: no cover

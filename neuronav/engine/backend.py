@@ -28,6 +28,16 @@ terrain (``seed``: None or an int >= 0); ``position_m=(x, y, z)`` puts the root 
 instead, ``pitch_rad`` tilts the body nose-up about its lateral axis (π/2: head up, belly toward
 +x), e.g. to start it on a wall, and ``spin_rad`` turns it about its own up axis first
 (:func:`start_pose`). ``apply_force(0, name, force_n)`` pushes at a site or at a segment's origin.
+
+Every backend casts rays against its scene: ``cast_rays(origins_m (N, 3), directions (N, 3),
+max_distance_m=50.0)`` gives the distance (m) along each ray to the first surface (the world's objects
+at the current scene yaw, the ground, a wall), ``np.inf`` where none lies within ``max_distance_m``;
+directions need not be unit vectors (they are normalised); the physics backends ignore their own body,
+so a ray may start inside it (e.g. at the head, looking at the sky). Its arguments are checked by
+:meth:`BackendBase._check_rays` (shapes, finite, non-zero directions, a distance > 0: else a
+:class:`ConfigError` naming the argument). On the kinematic backend ``head_pos`` / ``head_quat`` are
+the agents' positions at ``PointAgents.head_height_m`` and their heading's yaw, and the rays of many
+agents are stacked into one call.
 """
 
 from __future__ import annotations
@@ -39,7 +49,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from neuronav.errors import ConfigError, PortError
+from neuronav.errors import ConfigError, PortError, real_or_nan
 from neuronav.senses.chemistry import Chemistry
 from neuronav.spec.ports import MotorSpec, SensorSpec
 from neuronav.spec.world import World
@@ -58,6 +68,8 @@ ARTICULATED_SENSORS: tuple[tuple[str, tuple, str, str], ...] = (
     ("heading", (1,), "rad", "body +x axis clockwise from world +y"),
     ("velocity", (2,), "m/s", "body_linvel in the xy plane"),
     ("position", (2,), "m", "body_pos in the xy plane"),
+    ("head_pos", (3,), "m", "head segment's frame origin (a body without a 'head' segment: the root's)"),
+    ("head_quat", (4,), "", "head segment's rotation (w, x, y, z), w >= 0 (no 'head': the root's)"),
     ("odour_sites", ("O", 3), "m", "odour sites, world frame"),
     ("wind_sites", ("W", 3), "m", "wind sites, world frame"),
     ("odour", ("O", "K"), "amount/m^3", "concentration of each odour at each odour site (trails: 0-1)"),
@@ -183,6 +195,8 @@ class Backend(Protocol):
     def render(self, camera: str) -> np.ndarray: ...
     def apply_force(self, body: int | str, site: str, force_n: np.ndarray) -> None: ...
     def set_scene_yaw(self, yaw_rad: float) -> None: ...
+    def cast_rays(self, origins_m: np.ndarray, directions: np.ndarray,
+                  max_distance_m: float = 50.0) -> np.ndarray: ...
     @property
     def scene_yaw_rad(self) -> float: ...
     @property
@@ -209,6 +223,40 @@ class BackendBase:
         """Wind (x, y) at points (..., 3), the world's chemistry caught up with this backend's time."""
         self.chemistry.advance_to(self.time)
         return self.chemistry.wind_at(points_m)
+
+    def _check_rays(self, origins_m, directions, max_distance_m) -> tuple[np.ndarray, np.ndarray, float]:
+        """``cast_rays``' arguments checked: origins (N, 3) m and unit directions (N, 3) as float arrays
+        (the directions normalised) and the distance, or a ConfigError naming the argument at fault.
+
+        Shapes: (N, 3) each with the same N >= 0 (one ray (3,) is taken as (1, 3)); every value finite;
+        no direction of length 0; ``max_distance_m`` a finite number > 0.
+        """
+        where = f"{self.capabilities.name} cast_rays"
+        arrays = []
+        for label, values in (("origins_m", origins_m), ("directions", directions)):
+            try:
+                array = np.array(values, dtype=float)
+            except (TypeError, ValueError):
+                raise ConfigError(f"{where}: {label} must be numbers of shape (N, 3), "
+                                  f"got {type(values).__name__}") from None
+            if array.shape == (3,):
+                array = array[None]
+            if array.ndim != 2 or array.shape[1] != 3:
+                raise ConfigError(f"{where}: {label} must have shape (N, 3), got {array.shape}")
+            if not np.isfinite(array).all():
+                raise ConfigError(f"{where}: {label} must be finite, got a non-finite value")
+            arrays.append(array)
+        origins, vectors = arrays
+        if origins.shape != vectors.shape:
+            raise ConfigError(f"{where}: origins_m {origins.shape} and directions {vectors.shape} must have the "
+                              "same shape (N, 3)")
+        length = np.linalg.norm(vectors, axis=1)
+        if (length == 0).any():
+            raise ConfigError(f"{where}: directions must not be zero vectors (ray {int(np.argmin(length))})")
+        distance = real_or_nan(max_distance_m)
+        if not 0 < distance < np.inf:
+            raise ConfigError(f"{where}: max_distance_m must be a finite number > 0 (m), got {max_distance_m!r}")
+        return origins, vectors / length[:, None], distance
 
     def _check_read(self, names: Iterable[str]) -> list[str]:
         names = list(names)

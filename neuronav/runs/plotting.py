@@ -4,6 +4,11 @@ Figures are built as :class:`matplotlib.figure.Figure` objects without pyplot: n
 registry, no backend switch, nothing to close. A figure function draws one figure and returns it, so
 a test can read what was drawn; :func:`save` writes it.
 
+Trials per condition, as every scenario's summary figures draw them: :func:`condition_strip` (each trial a
+point, the condition's mean, median or circular mean with its seeded bootstrap 95 % interval, n in the tick
+labels, optionally over a box plot) and :func:`proportion_points` (each outcome at 1 or 0, the proportion
+with its Wilson 95 % interval); the statistics are :mod:`neuronav.runs.stats`'s.
+
 The circuit diagram is laid out by :func:`circuit_layout` (deterministic: a function of the
 populations' names, kinds and undelayed connections only) and its edges are routed by
 :func:`edge_route` so that no edge crosses a population it does not connect.
@@ -90,6 +95,157 @@ def heading_panel(ax, time, heading_rad, turn_at, time_label: str) -> None:
 def trial_colour(i: int) -> str:
     """The colour of trial ``i`` (matplotlib's ten-colour cycle)."""
     return f"C{i % 10}"
+
+
+# -- trials per condition: points, a centre and its interval -----------------------------------------
+CENTRE_LABELS = {"mean": "mean, 95 % CI", "median": "median, 95 % CI", "circular": "circular mean, 95 % CI"}
+
+
+def strip_offsets(n: int, width: float = 0.3, seed: int = 0) -> np.ndarray:
+    """Horizontal offsets of ``n`` points of one group: evenly spread over ``[-width/2, width/2]`` and put
+    in a seeded random order (so that sorted values do not draw a diagonal). The same every time."""
+    if n <= 1:
+        return np.zeros(n)
+    return np.random.default_rng(seed).permutation(np.linspace(-width / 2, width / 2, n))
+
+
+def _centre(values: np.ndarray, centre: str, seed: int) -> tuple[float, list[float]]:
+    """The group's centre and its 95 % percentile-bootstrap interval (:mod:`neuronav.runs.stats`, seeded);
+    NaNs for an empty group, a NaN interval for one value. ``circular``: values in degrees."""
+    from neuronav.runs.stats import circular_summary, describe
+    from neuronav.runs.summary_statistics import resamples_for
+
+    resamples = resamples_for(max(values.size, 1))
+    if centre == "circular":
+        block = circular_summary(np.radians(values), seed=seed, n_resamples=resamples)
+        return float(np.degrees(block["mean_rad"])), [float(np.degrees(v)) for v in block["mean_ci_rad"]]
+    block = describe(values, seed=seed, n_resamples=resamples)
+    return block[centre], list(block[f"{centre}_ci"])
+
+
+def condition_strip(ax, groups, *, positions=None, colours=None, centre: str = "mean", box: bool = False,
+                    width: float = 0.3, seed: int = 0, gid: str = "values", tick_labels: bool = True,
+                    marker_size: float = 5.0, legend: bool = True) -> dict[str, dict]:
+    """Every trial of each condition as a point, and the condition's centre with its 95 % interval.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    groups : mapping of str to sequence of float
+        Condition name -> one value per trial (NaN or None: missing, e.g. the time of an ant that never
+        arrived; left out of the points and the statistics, and counted in the tick label).
+    positions : sequence of float, optional
+        x of each group (default 0, 1, 2, ...).
+    colours : mapping of str to colour, optional
+        Point colour per group (default: matplotlib's cycle).
+    centre : {"mean", "median", "circular"}
+        The statistic drawn (a black diamond ``0.85 width`` right of the group's x) with its seeded
+        percentile-bootstrap 95 % interval (:func:`neuronav.runs.stats.describe`; ``circular``: values
+        are angles in degrees, :func:`neuronav.runs.stats.circular_summary`, its interval not wrapped).
+    box : bool
+        Draw a box plot (median, quartiles, whiskers; no fliers) under the points.
+    width : float
+        Horizontal spread of a group's points (data units); their offsets are :func:`strip_offsets`.
+    seed : int
+        Seed of the offsets and of the bootstrap.
+    gid : str
+        The points of group ``name`` are the line with gid ``"{gid} {name}"``; its centre the errorbar
+        line with gid ``"{gid} {name} {centre}"``.
+    tick_labels : bool
+        Label the x ticks ``name (n = k)``, or ``name (n = k of m)`` when values were missing.
+    legend : bool
+        Name the centre marker in the legend (once).
+
+    Returns
+    -------
+    dict
+        Name -> ``{"n", "n_missing", "position", "centre", "ci"}``.
+    """
+    if centre not in CENTRE_LABELS:
+        raise ValueError(f"centre must be one of {', '.join(CENTRE_LABELS)}, got {centre!r}")
+    names = list(groups)
+    positions = list(range(len(names))) if positions is None else [float(p) for p in positions]
+    drawn: dict[str, dict] = {}
+    for k, (name, position) in enumerate(zip(names, positions)):
+        raw = np.array([np.nan if v is None else v for v in groups[name]], float).reshape(-1)
+        values = raw[np.isfinite(raw)]
+        colour = (colours or {}).get(name, f"C{k % 10}")
+        if box and values.size:
+            ax.boxplot([values], positions=[position], widths=width * 1.5, showfliers=False, manage_ticks=False,
+                       medianprops=dict(color="0.3"), zorder=1)
+        ax.plot(position + strip_offsets(values.size, width, seed), values, "o", color=colour, alpha=0.65,
+                ms=marker_size, mec="none", zorder=2, gid=f"{gid} {name}")
+        middle, interval = _centre(values, centre, seed)
+        error = np.nan_to_num([[middle - interval[0]], [interval[1] - middle]])
+        bars = ax.errorbar(position + 0.85 * width, middle, yerr=error, fmt="D", color="k", ms=5, capsize=3,
+                           zorder=3, label=CENTRE_LABELS[centre] if legend and k == 0 else None)
+        bars.lines[0].set_gid(f"{gid} {name} {centre}")  # the marker only, not its caps
+        drawn[name] = {"n": int(values.size), "n_missing": int(raw.size - values.size), "position": position,
+                       "centre": middle, "ci": interval}
+    if tick_labels and names:
+        ax.set_xticks(positions, [f"{name}\n(n = {d['n']}" + (f" of {d['n'] + d['n_missing']})" if d["n_missing"]
+                                                              else ")") for name, d in drawn.items()])
+        ax.set_xlim(min(positions) - 0.5, max(positions) + 0.5 + width / 2)
+    return drawn
+
+
+def success_text(outcomes) -> str:
+    """``"success k of n = p % (Wilson 95 % CI low–high %)"`` for a sequence of true/false outcomes (None
+    or NaN left out), for a title (:func:`neuronav.runs.stats.success_rate`)."""
+    from neuronav.runs.stats import success_rate
+
+    known = [bool(v) for v in outcomes if v is not None and not (isinstance(v, float) and np.isnan(v))]
+    block = success_rate(sum(known), len(known))
+    low, high = block["ci"]
+    return (f"success {block['successes']} of {block['n']} = {100 * block['rate']:.0f} % "
+            f"(Wilson 95 % CI {100 * low:.0f}–{100 * high:.0f} %)")
+
+
+def proportion_points(ax, groups, *, positions=None, colours=None, width: float = 0.3, seed: int = 0,
+                      gid: str = "success", tick_labels: bool = True, legend: bool = True) -> dict[str, dict]:
+    """Each trial's outcome as a point at 1 (success) or 0, and each condition's proportion with its
+    Wilson 95 % interval (:func:`neuronav.runs.stats.success_rate`).
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    groups : mapping of str to sequence of bool
+        Condition name -> one outcome per trial (None or NaN: unknown, left out).
+    positions, colours, width, seed, tick_labels, legend
+        As in :func:`condition_strip`.
+    gid : str
+        The outcomes of group ``name`` are the line with gid ``"{gid} {name}"``, the proportion the
+        errorbar line ``"{gid} {name} rate"``.
+
+    Returns
+    -------
+    dict
+        Name -> :func:`neuronav.runs.stats.success_rate`'s block plus ``position``.
+    """
+    from neuronav.runs.stats import success_rate
+
+    names = list(groups)
+    positions = list(range(len(names))) if positions is None else [float(p) for p in positions]
+    drawn: dict[str, dict] = {}
+    for k, (name, position) in enumerate(zip(names, positions)):
+        raw = np.array([np.nan if v is None else float(v) for v in groups[name]], float).reshape(-1)
+        outcomes = raw[np.isfinite(raw)]
+        colour = (colours or {}).get(name, f"C{k % 10}")
+        ax.plot(position + strip_offsets(outcomes.size, width, seed), outcomes, "o", color=colour, alpha=0.5,
+                ms=5, mec="none", zorder=2, gid=f"{gid} {name}")
+        block = success_rate(int(outcomes.sum()), int(outcomes.size))
+        low, high = block["ci"]
+        rate = block["rate"]
+        bars = ax.errorbar(position + 0.85 * width, rate, yerr=np.nan_to_num([[rate - low], [high - rate]]),
+                           fmt="s", color="k", ms=5, capsize=3, zorder=3,
+                           label="proportion, Wilson 95 % CI" if legend and k == 0 else None)
+        bars.lines[0].set_gid(f"{gid} {name} rate")
+        drawn[name] = dict(block, position=position)
+    if tick_labels and names:
+        ax.set_xticks(positions, [f"{name}\n({d['successes']} of {d['n']})" for name, d in drawn.items()])
+        ax.set_xlim(min(positions) - 0.5, max(positions) + 0.5 + width / 2)
+    ax.set_ylim(-0.08, 1.08)
+    return drawn
 
 
 # -- connectivity matrix -------------------------------------------------------------------------

@@ -254,13 +254,14 @@ class RayCaster:
 
 
 # -- intersections: rays (origin relative to the object's position, unit direction), each a tuple
-# of 3 arrays broadcasting to (m, K); the nearest t in [NEAR_M, FAR_M] or inf ---------------------------
+# of 3 arrays broadcasting to (m, K); the nearest t in [near, far] (default [NEAR_M, FAR_M], the
+# cameras' range) or inf ---------------------------------------------------------------------------------
 
-def _first(*candidates: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """The smallest valid t among (t, valid) candidates, inf where none is valid or in range."""
+def _first(*candidates: tuple[np.ndarray, np.ndarray], near: float = NEAR_M, far: float = FAR_M) -> np.ndarray:
+    """The smallest valid t in [near, far] among (t, valid) candidates, inf where none is valid or in range."""
     best = None
     for t, valid in candidates:
-        t = np.where(valid & (t >= NEAR_M) & (t <= FAR_M), t, np.inf)
+        t = np.where(valid & (t >= near) & (t <= far), t, np.inf)
         best = t if best is None else np.minimum(best, t)
     return best
 
@@ -272,13 +273,13 @@ def _roots(a, b, c):
         return (-b - root) / a, (-b + root) / a
 
 
-def _sphere(o, d, size):
+def _sphere(o, d, size, near=NEAR_M, far=FAR_M):
     t0, t1 = _roots(1.0, o[0] * d[0] + o[1] * d[1] + o[2] * d[2], o[0] ** 2 + o[1] ** 2 + o[2] ** 2 - size[0] ** 2)
     valid = np.isfinite(t0)
-    return _first((t0, valid), (t1, valid))
+    return _first((t0, valid), (t1, valid), near=near, far=far)
 
 
-def _box(o, d, size):
+def _box(o, d, size, near=NEAR_M, far=FAR_M):
     """Slabs: the ray is inside the box from the largest entry to the smallest exit."""
     enter, leave = -np.inf, np.inf
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -292,7 +293,7 @@ def _box(o, d, size):
             enter = np.maximum(enter, np.minimum(lo, hi))
             leave = np.minimum(leave, np.maximum(lo, hi))
     valid = enter <= leave
-    return _first((enter, valid), (leave, valid))
+    return _first((enter, valid), (leave, valid), near=near, far=far)
 
 
 def _caps(o, d, radius, z_caps):
@@ -305,15 +306,15 @@ def _caps(o, d, radius, z_caps):
     return out
 
 
-def _cylinder(o, d, size):
+def _cylinder(o, d, size, near=NEAR_M, far=FAR_M):
     radius, half = size
     a = d[0] ** 2 + d[1] ** 2
     t0, t1 = _roots(a, o[0] * d[0] + o[1] * d[1], o[0] ** 2 + o[1] ** 2 - radius * radius)
     side = [(t, np.abs(o[2] + t * d[2]) <= half) for t in (t0, t1)]
-    return _first(*side, *_caps(o, d, radius, (-half, half)))
+    return _first(*side, *_caps(o, d, radius, (-half, half)), near=near, far=far)
 
 
-def _cone(o, d, size):
+def _cone(o, d, size, near=NEAR_M, far=FAR_M):
     """Side: x² + y² = k² (h - z)² with k = radius / (2 h), on the nappe below the apex (h - z in
     [0, 2h]); the base: a disc at z = -h."""
     radius, half = size
@@ -325,7 +326,7 @@ def _cone(o, d, size):
     for t in (t0, t1):
         w = w0 - t * d[2]
         side.append((t, (w >= 0) & (w <= 2.0 * half)))
-    return _first(*side, *_caps(o, d, radius, (-half,)))
+    return _first(*side, *_caps(o, d, radius, (-half,)), near=near, far=far)
 
 
 _INTERSECT = {"sphere": _sphere, "box": _box, "cylinder": _cylinder, "cone": _cone}
@@ -335,3 +336,144 @@ def render(world: World, directions: np.ndarray, eyes_m: np.ndarray, rotations: 
            scene_yaw_rad: float = 0.0) -> np.ndarray:
     """uint8 RGB images (N, H, W, 3) of ``world`` (see :class:`RayCaster`; builds one for this call)."""
     return RayCaster(world, directions).render(eyes_m, rotations, scene_yaw_rad)
+
+
+def _turned(origins_m: np.ndarray, directions: np.ndarray, scene_yaw_rad: float) -> tuple[tuple, tuple]:
+    """Rays (N, 3) in the objects' declared frame (turned by -scene_yaw_rad about z), as 3-tuples of (N,)."""
+    c, s = np.cos(scene_yaw_rad), np.sin(scene_yaw_rad)
+    o = (c * origins_m[:, 0] + s * origins_m[:, 1], -s * origins_m[:, 0] + c * origins_m[:, 1], origins_m[:, 2])
+    d = (c * directions[:, 0] + s * directions[:, 1], -s * directions[:, 0] + c * directions[:, 1], directions[:, 2])
+    return o, d
+
+
+def _sphere_entry(o: tuple, d: tuple, centre, radius: float) -> np.ndarray:
+    """Where each ray (unit direction) first is within ``radius`` of ``centre``: 0 for an origin inside,
+    ``np.inf`` for a ray that never comes that close."""
+    rel = [o[i] - centre[i] for i in range(3)]
+    along = -(rel[0] * d[0] + rel[1] * d[1] + rel[2] * d[2])  # distance to the point nearest the centre
+    gap2 = rel[0] ** 2 + rel[1] ** 2 + rel[2] ** 2 - radius * radius  # < 0: the origin is inside
+    with np.errstate(invalid="ignore"):
+        enter = along - np.sqrt(along * along - gap2)  # nan where the line misses the sphere
+    return np.where(gap2 <= 0, 0.0, np.where((along > 0) & (enter >= 0), enter, np.inf))
+
+
+def object_bounds(objects, margin: float = 0.05) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Bounds of ``objects`` at their declared poses, each widened by ``margin`` of its size and ``margin``
+    m (for the engines' polygonal cones and collision margins): bounding-sphere centres (O, 3) and radii
+    (O,), and the half extents (O, 3) of their boxes along the world axes about the same centres."""
+    centres = np.array([obj.position_m for obj in objects], float).reshape(-1, 3)
+    radii = np.array([bounding_radius_m(obj) for obj in objects], float) * (1.0 + margin) + margin
+    half = np.zeros((len(objects), 3))
+    for k, obj in enumerate(objects):
+        size = [float(v) for v in obj.size_m]
+        half[k] = size if obj.shape == "box" else (size[0],) * 3 if obj.shape == "sphere" else (size[0], *size)
+    return centres, radii, half * (1.0 + margin) + margin
+
+
+def bounds_span_m(bounds: tuple[np.ndarray, np.ndarray, np.ndarray], origins_m: np.ndarray, directions: np.ndarray,
+                  max_distance_m: float, scene_yaw_rad: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The stretch of each ray on which something within ``bounds`` (:func:`object_bounds`, the objects
+    turned by ``scene_yaw_rad`` about the world z axis) may be hit: from where the ray first enters one of
+    the objects' boxes (0 from inside one) to where it leaves the last it enters; (``np.inf``,
+    ``-np.inf``) where it enters none within ``max_distance_m``.
+
+    The bounding spheres pick the (ray, object) pairs to test (one matrix product over all of them);
+    the boxes, tighter (a flat roof's sphere would hold the agent under it), give the distances.
+
+    Parameters
+    ----------
+    bounds : (centres (O, 3), radii (O,), half extents (O, 3))
+    origins_m, directions : ndarray, shape (N, 3)
+        World frame; unit directions.
+    max_distance_m, scene_yaw_rad : float
+
+    Returns
+    -------
+    entry, leave : ndarray, shape (N,)
+    """
+    centres, radii, half = bounds
+    origins_m, directions = np.asarray(origins_m, float), np.asarray(directions, float)
+    entry, last = np.full(origins_m.shape[0], np.inf), np.full(origins_m.shape[0], -np.inf)
+    if centres.shape[0] == 0 or origins_m.shape[0] == 0:
+        return entry, last
+    o, d = (np.column_stack(part) for part in _turned(origins_m, directions, scene_yaw_rad))
+    # Spheres, (N, O): along = d·(c - o), the distance to the point nearest the centre, and
+    # gap2 = |o - c|² - r² (<= 0: the origin is inside).
+    if (origins_m == origins_m[0]).all():  # one origin (an agent's rays): fewer (N, O) operations
+        to_centre = centres - o[0]
+        gap2 = ((to_centre * to_centre).sum(axis=1) - radii * radii)[None, :]
+        along = d @ to_centre.T
+    else:
+        along = d @ centres.T - (o * d).sum(axis=1)[:, None]
+        gap2 = ((o * o).sum(axis=1)[:, None] - 2.0 * (o @ centres.T)
+                + ((centres * centres).sum(axis=1) - radii * radii)[None, :])
+    ray, obj = np.nonzero((gap2 <= 0) | ((along >= 0) & (along * along >= gap2)))
+    if ray.size == 0:
+        return entry, last
+    # Boxes (slabs) on those pairs.
+    rel, step, size = o[ray] - centres[obj], d[ray], half[obj]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lo, hi = (-size - rel) / step, (size - rel) / step
+    parallel = step == 0
+    inside = np.abs(rel) <= size
+    lo = np.where(parallel, np.where(inside, -np.inf, np.inf), lo)
+    hi = np.where(parallel, np.where(inside, np.inf, -np.inf), hi)
+    enter, leave = np.minimum(lo, hi).max(axis=1), np.maximum(lo, hi).min(axis=1)
+    meets = (enter <= leave) & (leave >= 0) & (enter <= max_distance_m)
+    np.minimum.at(entry, ray, np.where(meets, np.maximum(enter, 0.0), np.inf))
+    np.maximum.at(last, ray, np.where(meets, leave, -np.inf))
+    return entry, last
+
+
+def object_entry_m(objects, origins_m: np.ndarray, directions: np.ndarray, max_distance_m: float,
+                   scene_yaw_rad: float = 0.0, margin: float = 0.05) -> np.ndarray:
+    """How far along each ray none of ``objects`` can be hit (:func:`bounds_span_m` of their
+    :func:`object_bounds`), ``np.inf`` where none can be within ``max_distance_m``."""
+    return bounds_span_m(object_bounds(objects, margin), origins_m, directions, max_distance_m, scene_yaw_rad)[0]
+
+
+def first_hit_distance(world: World, origins_m: np.ndarray, directions: np.ndarray, max_distance_m: float = 50.0,
+                       scene_yaw_rad: float = 0.0) -> np.ndarray:
+    """Distance along each ray to the first surface of ``world``: its objects (turned by
+    ``scene_yaw_rad`` about the world z axis, as :class:`RayCaster` turns them) and the ground plane z = 0
+    seen from above; ``np.inf`` where nothing lies within ``max_distance_m``.
+
+    The kinematic backend's ``cast_rays`` (occlusion of the sky); the shapes are the renderer's
+    (:data:`_INTERSECT`), tested from t = 0 (a ray that starts inside an object hits it where it
+    leaves), each only on the rays that enter its bounding sphere. ``world.ground`` is not read: the
+    ground is the plane z = 0 (the kinematic agents walk on it whatever the world says).
+
+    Parameters
+    ----------
+    world : World
+    origins_m : ndarray, shape (N, 3)
+        Ray origins, world frame (m).
+    directions : ndarray, shape (N, 3)
+        Unit ray directions, world frame (the caller normalises them).
+    max_distance_m : float
+        Hits farther than this are no hits.
+    scene_yaw_rad : float
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Hit distances (m), ``np.inf`` for none.
+    """
+    origins_m, directions = np.asarray(origins_m, float), np.asarray(directions, float)
+    far = float(max_distance_m)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = -origins_m[:, 2] / directions[:, 2]
+    best = np.where((directions[:, 2] < 0) & (origins_m[:, 2] >= 0) & (t <= far), np.maximum(t, 0.0), np.inf)
+    if not world.objects:
+        return best
+    o, d = _turned(origins_m, directions, scene_yaw_rad)
+    for obj in world.objects:
+        reach = bounding_radius_m(obj) * (1.0 + 1e-9) + 1e-9
+        rows = np.flatnonzero(_sphere_entry(o, d, np.asarray(obj.position_m, float), reach) <= far)
+        if rows.size == 0:
+            continue
+        rel = tuple(o[i][rows] - obj.position_m[i] for i in range(3))
+        size = [float(v) for v in obj.size_m]
+        best[rows] = np.minimum(best[rows], _INTERSECT[obj.shape](rel, tuple(v[rows] for v in d), size, near=0.0,
+                                                                  far=far))
+    return best

@@ -230,6 +230,9 @@ class World:
     ``odour``: trails on the floor and a live plume with its wind (:class:`~neuronav.spec.odour_scene.OdourScene`;
     default none), computed engine-free and read by every backend at its odour and wind sites.
 
+    ``sky``: the sun and the polarised light of the dome (:class:`~neuronav.senses.sky.Sky`; None: no sky
+    compass cue), computed engine-free; scene objects occlude it where the backends cast rays.
+
     ``adhesion_n``: while an adhesive contact site's geom (a claw: ``Site.adhesive``) touches a
     surface, a force of this size presses it into that surface (0: off). Backends apply it every
     physics step.
@@ -244,6 +247,7 @@ class World:
     adhesion_n: float = 0.0
     appearance: Appearance = field(default_factory=Appearance)
     odour: OdourScene = field(default_factory=OdourScene)
+    sky: Sky | None = None  # noqa: F821 - neuronav.senses.sky.Sky, a description
 
     def __post_init__(self) -> None:
         if not isinstance(self.ground, Ground):
@@ -260,6 +264,15 @@ class World:
                               f"got {type(self.odour).__name__}")
         if not isinstance(self.appearance, Appearance):
             raise ConfigError(f"world appearance must be an Appearance, got {type(self.appearance).__name__}")
+        if self.sky is not None and not _is_sky(self.sky):
+            raise ConfigError(f"world sky must be a neuronav.senses.sky.Sky or None, got {type(self.sky).__name__}")
+
+
+def _is_sky(sky) -> bool:
+    """Whether ``sky`` is a :class:`~neuronav.senses.sky.Sky` (the sun's position and ``light``); checked by
+    what it holds, since the sky's model lives in :mod:`neuronav.senses` (as the odour plume's does)."""
+    return (type(sky).__name__ == "Sky" and callable(getattr(sky, "light", None))
+            and all(hasattr(sky, name) for name in ("sun_azimuth_rad", "sun_elevation_rad", "cloud_cover")))
 
 
 @dataclass(frozen=True)
@@ -310,6 +323,9 @@ class PointAgents:
         renders them by ray casting (:mod:`neuronav.senses.raycast`).
     antennae : tuple of PointAntenna
         Antennae carried by every agent: their tips are the agents' odour and wind sites.
+    head_height_m : float
+        Height of the agents' head above the ground (finite, >= 0, at most :data:`MAX_LENGTH_M`): the
+        kinematic backend's ``head_pos`` is (x, y, head_height_m), e.g. where a sky compass looks from.
     """
 
     count: int = 1
@@ -318,6 +334,7 @@ class PointAgents:
     mass_kg: float = 1.0
     cameras: tuple = ()
     antennae: tuple = ()
+    head_height_m: float = 0.5
 
     def __post_init__(self) -> None:
         if isinstance(self.count, bool) or not isinstance(self.count, int) or not 1 <= self.count <= MAX_POINT_AGENTS:
@@ -329,6 +346,9 @@ class PointAgents:
             raise ConfigError(f"PointAgents drag must be in [0, 1), got {self.drag!r}")
         if not 0 < real_or_nan(self.mass_kg) < np.inf:
             raise ConfigError(f"PointAgents mass_kg must be a finite number > 0, got {self.mass_kg!r}")
+        if not 0.0 <= real_or_nan(self.head_height_m) <= MAX_LENGTH_M:
+            raise ConfigError(f"PointAgents head_height_m must be a finite number >= 0 (m, up to {MAX_LENGTH_M:g}), "
+                              f"got {self.head_height_m!r}")
         antennae = tuple(self.antennae)
         if not all(isinstance(a, PointAntenna) for a in antennae):
             raise ConfigError("PointAgents antennae must be neuronav.spec.world.PointAntenna instances")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import new_figure, save
+from neuronav.runs.plotting import condition_strip, new_figure, save
 
 
 def write_cue_figures(result, config, out_dir: Path) -> list[Path]:
@@ -29,10 +29,16 @@ def _circular_mean_deg(values: np.ndarray) -> tuple[float, float]:
     return float(np.degrees(np.angle(resultant))), float(np.degrees(spread) / np.sqrt(values.size))
 
 
-def conflict_table(result) -> dict[str, np.ndarray]:
+def cue_modes_of(result) -> list[str]:
+    """The cue modes of the finished trials, in order of first appearance (``""`` for rows without one)."""
+    return list(dict.fromkeys(t.get("cues", "") for t in result.trials if t.get("status", "ok") == "ok"))
+
+
+def conflict_table(result, cues: str | None = None) -> dict[str, np.ndarray]:
     """Per conflict angle (sorted): n, the mean initial heading and its standard error, the mean prediction,
-    the mean PI and visual cues at release (deg, relative to the nest direction)."""
-    trials = [t for t in result.trials if t.get("status", "ok") == "ok"]
+    the mean PI and visual cues at release (deg, relative to the nest direction), over the finished trials
+    of cue mode ``cues`` (None: every trial, as when the run has one mode)."""
+    trials = [t for t in result.trials if t.get("status", "ok") == "ok" and (cues is None or t.get("cues", "") == cues)]
     conflicts = np.array(sorted({t["conflict_deg"] for t in trials}), float)
     columns = {k: [] for k in ("n", "initial_deg", "initial_se_deg", "predicted_deg", "pi_deg", "vision_deg")}
     for conflict in conflicts:
@@ -47,25 +53,45 @@ def conflict_table(result) -> dict[str, np.ndarray]:
     return {"conflict_deg": conflicts, **{k: np.array(v, float) for k, v in columns.items()}}
 
 
+MODE_COLOURS = {"both": "tab:red", "pi": "tab:blue", "vision": "tab:green"}
+
+
 def initial_heading_figure(result, config):
-    """Initial heading (relative to the nest) against the conflict angle: each trial, the mean per conflict,
-    the two cues' lines and the reliability-weighted prediction."""
-    table = conflict_table(result)
-    fig, ax = new_figure((6, 5))
-    conflicts = np.array([t["conflict_deg"] for t in result.trials], float)
-    initial = np.array([t["initial_heading_deg"] for t in result.trials], float)
-    jitter = np.random.default_rng(0).uniform(-3.0, 3.0, conflicts.size)
-    ax.plot(conflicts + jitter, initial, ".", color="0.6", ms=3, alpha=0.5, gid="trials", label="trials")
-    x = table["conflict_deg"]
-    ax.plot(x, np.zeros_like(x), "-", color="tab:green", gid="vision line", label="visual cue (nest direction)")
-    ax.plot(x, x, "-", color="tab:blue", gid="pi line", label="PI cue (home vector)")
-    ax.plot(x, table["predicted_deg"], "--", color="k", gid="prediction", label="weighted prediction")
-    ax.errorbar(x, table["initial_deg"], yerr=table["initial_se_deg"], fmt="o", color="tab:red", capsize=3,
-                gid="mean initial heading", label=f"mean initial heading ({config.cues})")
+    """Initial heading (relative to the nest) against the conflict angle, per cue mode (``cues`` a comma
+    list: one series each, side by side, never pooled): every trial as a point, the circular mean per
+    conflict with its bootstrap 95 % interval, n per conflict and mode; the two cues' lines and each
+    mode's reliability-weighted prediction."""
+    fig, ax = new_figure((7, 5))
+    modes = cue_modes_of(result)
+    all_conflicts = np.array(sorted({t["conflict_deg"] for t in result.trials}), float)
+    spacing = float(np.min(np.diff(all_conflicts))) if all_conflicts.size > 1 else 30.0
+    band = 0.5 * spacing / max(len(modes), 1)  # each mode's share of the space between two conflicts
+    x = all_conflicts
+    ax.plot(x, np.zeros_like(x), "-", color="tab:green", lw=0.8, gid="vision line", label="visual cue (nest direction)")
+    ax.plot(x, x, "-", color="tab:blue", lw=0.8, gid="pi line", label="PI cue (home vector)")
+    counts = []
+    for k, mode in enumerate(modes):
+        table = conflict_table(result, mode if len(modes) > 1 else None)
+        offset = (k - (len(modes) - 1) / 2) * band
+        groups = {f"{c:g}": [t["initial_heading_deg"] for t in result.trials if t.get("status", "ok") == "ok"
+                             and t["conflict_deg"] == c and (len(modes) == 1 or t.get("cues", "") == mode)]
+                  for c in table["conflict_deg"]}
+        drawn = condition_strip(ax, groups, positions=table["conflict_deg"] + offset - 0.2 * band,
+                                colours=dict.fromkeys(groups, MODE_COLOURS.get(mode, f"C{k}")), centre="circular",
+                                width=0.45 * band, gid=f"initial {mode}", tick_labels=False, marker_size=3,
+                                legend=k == 0)
+        counts += [d["n"] for d in drawn.values()]
+        ax.plot([], [], "o", color=MODE_COLOURS.get(mode, f"C{k}"), ms=3, label=f"trials, {mode} cues")
+        ax.plot(table["conflict_deg"], table["predicted_deg"], "--", color=MODE_COLOURS.get(mode, f"C{k}"),
+                gid="prediction" if len(modes) == 1 else f"prediction {mode}",
+                label=f"weighted prediction ({mode} cues)")
+    ax.set_xticks(x, [f"{c:g}" for c in x])
     ax.set_xlabel("conflict: PI direction − nest direction (deg)")
     ax.set_ylabel(f"initial heading at {config.initial_distance_m:g} m (deg from the nest direction)")
-    ax.set_title(f"cue integration, n = {len(result.trials)} trials")
-    ax.legend(loc="upper left", fontsize=8)
+    n_text = f"n = {min(counts)}" if counts and min(counts) == max(counts) else \
+        f"n = {min(counts, default=0)}–{max(counts, default=0)}"
+    ax.set_title(f"cue integration ({', '.join(modes)}): {n_text} per conflict and cue mode", fontsize=9)
+    ax.legend(loc="best", fontsize=7)
     return fig
 
 

@@ -41,7 +41,7 @@ from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
-from neuronav.scenarios.aggregation import per_condition, success_rate
+from neuronav.scenarios.aggregation import finished_trials, per_condition, success_rate
 from neuronav.scenarios.cue_integration.brain import CueBrain, weighted_direction
 from neuronav.scenarios.trial_loop import run_loop
 from neuronav.scenarios.variability import variability_field
@@ -122,6 +122,13 @@ def cue_modes(config: CueIntegrationConfig) -> tuple[str, ...]:
     if not values or any(v not in CUE_MODES for v in values):
         raise ConfigError(f"cues: expected both, pi, vision or a comma list of them, got {config.cues!r}")
     return values
+
+
+def trial_cue_modes(trials: list[dict], config: CueIntegrationConfig) -> list[str]:
+    """The cue modes the finished trials ran under: those of ``config.cues`` in its order, then any other
+    a row names (rows without a ``cues`` column count as ``config.cues``'s first)."""
+    present = {t.get("cues", cue_modes(config)[0]) for t in finished_trials(trials)}
+    return [m for m in cue_modes(config) if m in present] + sorted(present - set(cue_modes(config)))
 
 
 def trial_setup(config: CueIntegrationConfig, seed: int) -> dict:
@@ -368,16 +375,28 @@ class CueIntegration(Scenario):
 
     def aggregate(self, trials: list[dict], config: CueIntegrationConfig) -> dict:
         """Per conflict angle: the circular mean initial heading (where any was measured), the mean
-        prediction, the success rate."""
+        prediction, the success rate (``initial_heading_90_deg``, ...). With several cue modes (``cues`` a
+        comma list, cycled over the trials) per cue mode and conflict (``initial_heading_pi_90_deg``, ...):
+        the modes are never pooled."""
         def initial(group: list[dict]) -> float | None:  # None where no ant of the group got initial_distance_m away
             value = circular_mean_deg([t["initial_heading_deg"] for t in group])
             return value if np.isfinite(value) else None
 
-        return per_condition(trials, "conflict_deg", {
+        statistics = {
             "initial_heading_{}_deg": initial,
             "predicted_heading_{}_deg": lambda group: circular_mean_deg([t["predicted_heading_deg"] for t in group]),
             "success_{}": success_rate,
-        })
+        }
+        modes = trial_cue_modes(trials, config)
+        if len(modes) <= 1:
+            return per_condition(trials, "conflict_deg", statistics)
+        result = {}
+        for mode in modes:
+            group = [t for t in finished_trials(trials) if t.get("cues") == mode]
+            conflicts = sorted({t["conflict_deg"] for t in group})
+            result.update(per_condition(group, "conflict_deg", statistics,
+                                        labels={c: f"{mode}_{c:g}" for c in conflicts}))
+        return result
 
     def run(self, config: CueIntegrationConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from neuronav.bodies.desert_ant import LEGS
-from neuronav.runs.plotting import new_figure, save, trial_colour
+from neuronav.runs.plotting import condition_strip, new_figure, proportion_points, save, trial_colour
 
 # A claw pressing on the ground with more than this counts as touching in the gait diagram.
 STANCE_FORCE_N = 1.0
@@ -21,7 +21,7 @@ MAX_LABELLED_TRIALS = 8
 
 
 def write_figures(result, config, out_dir: Path) -> list[Path]:
-    """trajectory.png, leg_traces.png, gait_diagram.png (and climb.png on the wall)."""
+    """trajectory.png (with the per-gait summary), leg_traces.png, gait_diagram.png (and climb.png on the wall)."""
     ts = result.timeseries
     out_dir = Path(out_dir)
     time_s = np.arange(ts["mr_angles_rad"].shape[1]) * config.control_dt_s
@@ -39,9 +39,10 @@ def _title(config) -> str:
 
 
 def trajectory_figure(result, config):
-    """Top view of the body centre's path per trial (start: black dot, end: cross)."""
+    """Top view of the body centre's path per trial (start: black dot, end: cross); beside it, per gait,
+    each trial's forward speed (on the wall: climb height) and not falling (:func:`gait_panels`)."""
     ts = result.timeseries
-    fig, ax = new_figure((6, 6))
+    fig, (ax, metric_ax, upright_ax) = new_figure((13, 5.5), 1, 3, gridspec_kw={"width_ratios": [1.6, 1, 1]})
     for i, trial in enumerate(result.trials):
         xy = ts["position_m"][i][:, :2]
         ax.plot(xy[:, 0], xy[:, 1], lw=1, color=trial_colour(i),
@@ -55,7 +56,28 @@ def trajectory_figure(result, config):
     ax.set_ylabel("y (m)")
     ax.set_title(_title(config), fontsize=10)
     ax.legend(fontsize=7)
+    gait_panels(metric_ax, upright_ax, result, config)
     return fig
+
+
+def gait_panels(metric_ax, upright_ax, result, config) -> None:
+    """Per gait (the rows' ``gait`` column, as the scenario's statistics group them): every trial's forward
+    speed (on the wall: the climb height) with the mean's bootstrap 95 % interval, and staying upright
+    (1 or 0, the proportion with its Wilson 95 % interval)."""
+    rows = [t for t in result.trials if t.get("status", "ok") == "ok"]
+    names = list(dict.fromkeys(str(t.get("gait", config.gait)) for t in rows))
+    key, label = (("climb_height_m", "climb height (m)") if config.terrain == "wall"
+                  else ("forward_speed_m_s", "forward speed (m/s)"))
+    condition_strip(metric_ax, {g: [t.get(key, np.nan) for t in rows if str(t.get("gait", config.gait)) == g]
+                                for g in names}, gid=key)
+    metric_ax.set_ylabel(label)
+    metric_ax.set_title(f"{label.split(' (')[0]} by gait", fontsize=10)
+    metric_ax.legend(fontsize=7, loc="best")
+    proportion_points(upright_ax, {g: [bool(t["success"]) for t in rows if str(t.get("gait", config.gait)) == g]
+                                   for g in names}, gid="upright")
+    upright_ax.set_ylabel("did not fall (1 yes, 0 no)")
+    upright_ax.set_title("staying upright by gait", fontsize=10)
+    upright_ax.legend(fontsize=7, loc="best")
 
 
 def leg_traces_figure(ts, config, time_s):

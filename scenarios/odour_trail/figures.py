@@ -10,8 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import new_figure, save
-from neuronav.runs.stats import describe
+from neuronav.runs.plotting import condition_strip, new_figure, proportion_points, save
 from neuronav.senses.odour import rasterise
 
 MODE_COLOURS = {"fixed": "tab:blue", "moving": "tab:orange"}
@@ -31,7 +30,8 @@ def _modes(result) -> list[str]:
 
 
 def trajectories_figure(result, config):
-    """Top view: the trail (rasterised concentration) and every trial's path coloured by its antennae."""
+    """Top view: the trail (rasterised concentration) and every trial's path coloured by its antennae, each
+    trial's start (its first recorded position: starts are jittered) as an open triangle."""
     from neuronav.scenarios.odour_trail.scenario import end_line_m, make_trail
 
     trail = make_trail(config.width, config.edge_m)
@@ -51,7 +51,8 @@ def trajectories_figure(result, config):
         labelled.add(mode)
     finish = end_line_m(trail, config)
     ax.plot(finish[:, 0], finish[:, 1], ls="--", color="k", gid="end", label="finish line")
-    ax.plot(0.0, 0.0, "k^", ms=9, label="start")
+    starts = np.array([path[0] for path in paths if len(path)]).reshape(-1, 2)  # each trial's own (jittered) start
+    ax.plot(starts[:, 0], starts[:, 1], "k^", ms=6, mfc="none", label="start")
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -60,24 +61,18 @@ def trajectories_figure(result, config):
     return fig
 
 
+def _by_mode(result, key: str) -> dict[str, list[float]]:
+    """Each present antenna mode's values of column ``key`` (NaN kept: counted as missing)."""
+    modes = _modes(result)
+    return {mode: [float(t[key]) for t, m in zip(result.trials, modes) if m == mode] for mode in MODES if mode in modes}
+
+
 def completion_figure(result):
     """Completion (fraction of the trail covered) per antenna mode: every trial, and the mean with its
     seeded bootstrap 95 % interval."""
     fig, ax = new_figure((5, 4))
-    modes = _modes(result)
-    present = [m for m in MODES if m in modes]
-    for k, mode in enumerate(present):
-        values = np.array([t["completion"] for t, m in zip(result.trials, modes) if m == mode])
-        jitter = np.linspace(-0.12, 0.12, len(values)) if len(values) > 1 else np.zeros(1)
-        ax.plot(k + jitter, values, "o", color=MODE_COLOURS[mode], alpha=0.6, gid=f"completion {mode}")
-        mean = describe(values, seed=0)
-        low, high = mean["mean_ci"]  # NaN for one trial: no interval drawn
-        error = np.nan_to_num([[mean["mean"] - low], [high - mean["mean"]]])
-        ax.errorbar(k + 0.3, mean["mean"], yerr=error, fmt="D",
-                    color="k", capsize=4, gid=f"mean {mode}", label="mean, 95 % CI" if k == 0 else None)
-    ax.set_xticks(range(len(present)), [f"{m}\n(n={modes.count(m)})" for m in present])
-    ax.set_ylim(0.0, 1.05)
-    ax.set_xlim(-0.5, len(present) - 0.2)
+    condition_strip(ax, _by_mode(result, "completion"), colours=MODE_COLOURS, gid="completion")
+    ax.set_ylim(-0.02, 1.05)
     ax.legend(loc="lower right", fontsize=8)
     ax.set_ylabel("completion (fraction of the trail)")
     ax.set_title("completion by antennae")
@@ -85,21 +80,19 @@ def completion_figure(result):
 
 
 def finish_time_figure(result):
-    """Box plot of the finish time per antenna mode (trials that reached the end), with the points."""
-    fig, ax = new_figure((5, 4))
+    """Per antenna mode: reaching the end (each trial at 1 or 0, the proportion with its Wilson 95 %
+    interval) and the finish time of the trials that reached it (box plot, every trial, the median with
+    its bootstrap 95 % interval)."""
+    fig, (ax, rate_ax) = new_figure((8, 4), 1, 2, gridspec_kw={"width_ratios": [1.4, 1]})
     modes = _modes(result)
-    present = [m for m in MODES if m in modes]
-    data = [[t["finish_time_s"] for t, m in zip(result.trials, modes) if m == mode and np.isfinite(t["finish_time_s"])]
-            for mode in present]
-    positions = np.arange(1, len(present) + 1)
-    filled = [k for k, d in enumerate(data) if d]
-    if filled:
-        ax.boxplot([data[k] for k in filled], positions=positions[filled], widths=0.5)
-    for k, (mode, values) in enumerate(zip(present, data)):
-        ax.plot(np.full(len(values), positions[k]), values, "o", color=MODE_COLOURS[mode], alpha=0.7,
-                gid=f"finish {mode}")
-    ax.set_xticks(positions, [f"{m}\n(n={modes.count(m)}, reached {len(d)})" for m, d in zip(present, data)])
-    ax.set_xlim(0.4, len(present) + 0.6)
+    proportion_points(rate_ax, {mode: [bool(t["success"]) for t, m in zip(result.trials, modes) if m == mode]
+                                for mode in MODES if mode in modes}, colours=MODE_COLOURS, gid="reached")
+    rate_ax.set_ylabel("reached the end (1 yes, 0 no)")
+    rate_ax.set_title("reaching the end")
+    rate_ax.legend(loc="best", fontsize=7)
+    condition_strip(ax, _by_mode(result, "finish_time_s"), colours=MODE_COLOURS, centre="median", box=True,
+                    gid="finish")
     ax.set_ylabel("finish time (s)")
-    ax.set_title("finish time by antennae")
+    ax.set_title("finish time (trials that reached the end)")
+    ax.legend(loc="best", fontsize=7)
     return fig

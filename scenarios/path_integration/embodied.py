@@ -38,10 +38,22 @@ from neuronav import registry
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.gaits import make_gait
 from neuronav.brains.cx import decode_home_vector, stone2017
+from neuronav.brains.sky_compass import decode_heading, sky_stone2017
 from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import ScenarioResult
 from neuronav.scenarios.motor_noise import MotorNoise
+from neuronav.scenarios.path_integration.inputs import (
+    LegOdometer,
+    SkyView,
+    StrideCounter,
+    body_to_world,
+    inputs_label,
+    level_rim_mount,
+    run_sky,
+    trial_inputs,
+    world_to_body,
+)
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, normal_per_trial, trial_generators
 from neuronav.spec.world import Ground, PointAgents, World
@@ -49,6 +61,10 @@ from neuronav.spec.world import Ground, PointAgents, World
 CYCLE_S = 0.64
 CONTROL_S = 0.008
 MIN_STRIDE_RAD = np.radians(5.0)
+# What the brain logs every gait cycle (``compass_heading_rad``: the heading its compass gives, the true one
+# with its noise or the sky compass's decoded TB1 plus the sun's azimuth).
+LOG_KEYS = ("time_s", "position_m", "heading_rad", "compass_heading_rad", "cpu4", "fed_velocity",
+            "measured_velocity", "turn", "stride_rad")
 EXTRA_STRIDE_RAD = np.radians(20.0)
 
 
@@ -97,36 +113,58 @@ class HomingBrain:
     (None: it reads exactly); the command goes through the trial's :func:`motor_noise`.
     """
 
-    def __init__(self, config, seed: int, outbound_s: float, noise: dict[str, np.ndarray] | None = None) -> None:
+    def __init__(self, config, seed: int, outbound_s: float, noise: dict[str, np.ndarray] | None = None,
+                 compass: str = "true", odometer=None, sky_view: SkyView | None = None) -> None:
         self.config = config
         self.noise = noise
         self.motor = motor_noise(config, seed)
         self.cycle = 0
         self.rng = np.random.default_rng([seed, 2])
-        self.cx = stone2017(noise=config.embodied_noise, memory_gain=config.embodied_memory_gain,
-                            memory_leak=config.memory_leak).compile(batch=1, seeds=[seed])
+        self.compass, self.odometer, self.sky_view = compass, odometer, sky_view
+        if compass == "sky":
+            self.cx = sky_stone2017(noise=config.embodied_noise, pol_noise=config.pol_noise,
+                                    compass_gain=config.compass_gain, memory_gain=config.embodied_memory_gain,
+                                    memory_leak=config.memory_leak).compile(batch=1, seeds=[seed])
+        else:
+            self.cx = stone2017(noise=config.embodied_noise, memory_gain=config.embodied_memory_gain,
+                                memory_leak=config.memory_leak).compile(batch=1, seeds=[seed])
         self.outbound_s = outbound_s
         self.turn = 0.0
         self.last_position = None
         self.turnback_memory = None
-        self.log: dict[str, list] = {k: [] for k in ("time_s", "position_m", "heading_rad", "cpu4", "fed_velocity",
-                                                     "measured_velocity", "turn", "stride_rad")}
+        self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
+
+    def _odometry(self, sensed: dict, position: np.ndarray) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """What the odometer says the body moved over the last gait cycle: (world (x, y), None) from the
+        true displacement, (None, body (forward, left)) from a step or stride odometer."""
+        if self.odometer is not None:
+            return None, self.odometer.take()
+        if self.config.velocity_input == "pose":
+            moved = position - self.last_position  # metres per gait cycle
+        else:
+            moved = sensed["velocity"][0] * CYCLE_S
+        if self.noise is not None:
+            moved = moved * (1.0 + self.noise["odometry"][self.cycle])
+        return moved, None
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         sensed = loop.backend.read(("heading", "position", "velocity"))
         heading, position = sensed["heading"][0, 0], sensed["position"][0]
         if self.last_position is None:
             self.last_position = position
-        if self.config.velocity_input == "pose":
-            fed = position - self.last_position  # metres per gait cycle
-        else:
-            fed = sensed["velocity"][0] * CYCLE_S
+        moved_world, moved_body = self._odometry(sensed, position)
         self.last_position = position
-        read = heading
-        if self.noise is not None:
-            read = heading + self.noise["compass"][self.cycle]
-            fed = fed * (1.0 + self.noise["odometry"][self.cycle])
-        self.cx.step({"heading": np.array([[read]]), "velocity": fed[None, :]})
+        if self.compass == "sky":
+            if moved_body is None:  # the true displacement, in the body frame the TN cells read
+                moved_body = world_to_body(moved_world, heading)
+            self.cx.step({"pol": self.sky_view(loop.backend), "body_velocity": moved_body[None, :]})
+            read = float(decode_heading(self.cx.rates("TB1"))[0]) + self.sky_view.sky.sun_azimuth_rad
+        else:
+            read = heading + (self.noise["compass"][self.cycle] if self.noise is not None else 0.0)
+            if moved_world is None:  # turned into the world by the heading the CX reads (its TN encoder turns
+                moved_world = body_to_world(moved_body, read)  # it back with the same one)
+            self.cx.step({"heading": np.array([[read]]), "velocity": moved_world[None, :]})
+        fed_world = moved_world if moved_body is None else body_to_world(moved_body, heading)
         if loop.time_s < self.outbound_s:
             # Foraging: a smooth random walk of turn commands at the configured stride.
             self.turn = float(np.clip(0.7 * self.turn + self.rng.normal(0.0, self.config.foraging_turn_std),
@@ -136,10 +174,14 @@ class HomingBrain:
             if self.turnback_memory is None:
                 self.turnback_memory = self.cx.memory("CPU4")[0]
             command = steering_command(self.cx.rates("CPU1")[0], self.config.k_pi)
+        if isinstance(self.odometer, StrideCounter):
+            self.odometer.command = command  # the efference copy the unicycle's stride counter reads
         command = self.motor(*command)
         self.cycle += 1
         for key, value in (("time_s", loop.time_s), ("position_m", position), ("heading_rad", heading),
-                           ("cpu4", self.cx.memory("CPU4")[0]), ("fed_velocity", fed / CYCLE_S),
+                           ("compass_heading_rad", read),
+                           ("cpu4", self.cx.memory("CPU4")[0]),
+                           ("fed_velocity", fed_world / CYCLE_S),
                            ("measured_velocity", sensed["velocity"][0]), ("turn", command[0]),
                            ("stride_rad", command[1])):
             self.log[key].append(np.array(value, float))
@@ -219,7 +261,18 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
         body = desert_ant()
         gait, physics_dt = make_gait("tripod", body), config.embodied_timestep_s
     noise = homing_noise(config, [seed], noise_cycles(config.outbound_s + config.homing_timeout_s))
-    brain = HomingBrain(config, seed, config.outbound_s, None if noise is None else {k: v[0] for k, v in noise.items()})
+    compass, odometry = trial_inputs(config, seed)
+    if compass == "sky":
+        world = World(ground=world.ground, sky=run_sky(config))
+    hooks, odometer = [], None
+    if odometry == "steps":
+        # The body the brain believes it has: the desert ant as built (fixed for the trial).
+        odometer = StrideCounter(engine.calibration) if backend_name == "kinematic" else LegOdometer(body)
+        hooks.append(odometer)
+    brain = HomingBrain(config, seed, config.outbound_s, None if noise is None else {k: v[0] for k, v in noise.items()},
+                        compass=compass, odometer=odometer,
+                        sky_view=(SkyView(world.sky, world, mount=None if backend_name == "kinematic"
+                                          else level_rim_mount(body)) if compass == "sky" else None))
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
 
     def home(lp: AgentLoop) -> bool:
@@ -230,13 +283,14 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
 
     loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
                                    duration_s=config.outbound_s + config.homing_timeout_s, until=home,
-                                   video_path=video_path)
+                                   hooks=hooks, video_path=video_path)
     log = {k: list(v) for k, v in brain.log.items()}
     log["time_s"].append(np.array(loop.time_s))
     log["position_m"].append(final)
-    for key in ("heading_rad", "cpu4", "fed_velocity", "measured_velocity", "turn", "stride_rad"):
+    for key in LOG_KEYS[2:]:
         log[key].append(np.full_like(log[key][-1], np.nan))
-    return embodied_metrics(log, brain, config, loop.time_s, wall_s), log
+    row = embodied_metrics(log, brain, config, loop.time_s, wall_s)
+    return dict(row, inputs=inputs_label(compass, odometry)), log
 
 
 def embodied_metrics(log: dict, brain: HomingBrain, config, trial_time_s: float, wall_s: float) -> dict:
@@ -253,7 +307,14 @@ def embodied_metrics(log: dict, brain: HomingBrain, config, trial_time_s: float,
     reached = bool(homing_distance.min() <= config.nest_radius_m)
     memory = brain.turnback_memory if brain.turnback_memory is not None else brain.cx.memory("CPU4")[0]
     decoded, _ = decode_home_vector(memory[None, :])
+    if brain.compass == "sky":  # the sky compass's memory is kept relative to the sun's azimuth
+        decoded = decoded + brain.sky_view.sky.sun_azimuth_rad
     true_home = np.arctan2(-positions[turnback, 0], -positions[turnback, 1])
+    # The compass's error each gait cycle, and what the odometer made of the path: its length over the true one.
+    compass_error = np.angle(np.exp(1j * (np.array(log["compass_heading_rad"][:-1])
+                                          - np.array(log["heading_rad"][:-1]))))
+    true_path_m = np.linalg.norm(np.diff(positions[:-1], axis=0), axis=1).sum()  # sampled when the brain read
+    fed_path_m = np.linalg.norm(np.array(log["fed_velocity"][1:-1]).reshape(-1, 2), axis=1).sum() * CYCLE_S
     return {
         "success": reached, "status": "ok", "error": "",
         "homing_time_s": float(trial_time_s - config.outbound_s) if reached else float("nan"),
@@ -262,6 +323,10 @@ def embodied_metrics(log: dict, brain: HomingBrain, config, trial_time_s: float,
         # How much of the walked homing path brought the ant nearer: 1 for a straight line.
         "straightness": float((home_distance - homing_distance.min()) / path) if path > 0 else float("nan"),
         "decode_error_deg": float(np.degrees(abs(np.angle(np.exp(1j * (decoded[0] - true_home)))))),
+        # Root-mean-square over the gait cycles.
+        "compass_error_deg": (float(np.degrees(np.sqrt(np.mean(compass_error ** 2)))) if compass_error.size
+                              else float("nan")),
+        "odometer_ratio": float(fed_path_m / true_path_m) if true_path_m > 0 else float("nan"),
         "trial_time_s": float(trial_time_s),
         "real_time_factor": float(trial_time_s / wall_s) if wall_s > 0 else float("nan"),
     }

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import heading_panel, new_figure, save, trial_colour
+from neuronav.runs.plotting import heading_panel, new_figure, save, success_text, trial_colour
 
 
 def write_embodied_figures(result, config, out_dir: Path) -> list[Path]:
@@ -44,8 +44,8 @@ def trajectories_figure(result, config):
             labelled[part] |= bool(visible)
     ax.add_patch(Circle((0, 0), config.nest_radius_m, fill=False, color="k", ls="--"))
     ax.plot(0, 0, "k*", ms=12, label="nest")
-    success = np.mean([t["success"] for t in result.trials])
-    ax.set_title(f"{len(result.trials)} trials (colour: trial), success {100 * success:.0f}%")
+    ax.set_title(f"{len(result.trials)} trials (colour: trial), {success_text([t['success'] for t in result.trials])}",
+                 fontsize=10)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")

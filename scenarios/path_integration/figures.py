@@ -11,7 +11,16 @@ from pathlib import Path
 import numpy as np
 
 from neuronav.brains.cx import stone2017
-from neuronav.runs.plotting import heading_panel, new_figure, plot_circuit, plot_connectivity, save, trial_colour
+from neuronav.brains.sky_compass import sky_stone2017
+from neuronav.runs.plotting import (
+    heading_panel,
+    new_figure,
+    plot_circuit,
+    plot_connectivity,
+    save,
+    success_text,
+    trial_colour,
+)
 
 MAX_TRAJECTORIES = 200
 
@@ -23,7 +32,7 @@ def write_figures(result, config, out_dir: Path) -> list[Path]:
     if result.timeseries["cpu4_memory"].shape[0]:
         paths.append(save(cpu4_figure(result, config), out_dir / "cpu4_activity.png", tight=False))
         paths.append(save(tb1_figure(result, config), out_dir / "tb1_heading.png"))
-    circuit = stone2017(noise=config.noise)
+    circuit = sky_stone2017(noise=config.noise) if _sky(config) else stone2017(noise=config.noise)
     fig, ax = new_figure((8, 7))
     plot_connectivity(circuit, ax)
     paths.append(save(fig, out_dir / "circuit_connectivity.png"))
@@ -50,9 +59,8 @@ def trajectories_figure(result, config):
                 label="homing, CX (solid)" if n == 0 else None, gid=f"trial {i} homing")
     ax.add_patch(Circle((0, 0), config.success_radius, fill=False, color="k", ls="--"))
     ax.plot(0, 0, "k*", ms=12, label="nest")
-    success = np.mean([t["success"] for t in result.trials])
-    ax.set_title(f"{len(result.trials)} trials (colour: trial), success {100 * success:.1f}%, "
-                 f"tortuosity {result.aggregates.get('tortuosity', float('nan')):.3f}", fontsize=10)
+    ax.set_title(f"{len(result.trials)} trials (colour: trial), {success_text([t['success'] for t in result.trials])},"
+                 f"\ntortuosity {result.aggregates.get('tortuosity', float('nan')):.3f}", fontsize=10)
     ax.set_aspect("equal")
     ax.set_xlabel("x (steps)")
     ax.set_ylabel("y (steps)")
@@ -85,6 +93,11 @@ def cpu4_figure(result, config):
     return fig
 
 
+def _sky(config) -> bool:
+    """Whether the run's CX read the sky compass (stone2017 runs one compass per run)."""
+    return str(config.compass).strip() == "sky"
+
+
 def tb1_figure(result, config):
     """Trial 0: TB1 rates (columns x steps) with the heading in column units as dots."""
     ts = result.timeseries
@@ -92,9 +105,12 @@ def tb1_figure(result, config):
     fig, ax = new_figure((9, 3.5))
     ax.imshow(ts["tb1_rates"][0].T, aspect="auto", origin="lower", cmap="magma",
               extent=_record_extent(time, config.record_every, (-0.5, 7.5)))
-    column = np.mod(ts["heading_rad"][0], 2 * np.pi) / (np.pi / 4)
+    # The sky compass's TB1 stands for the heading relative to the sun's azimuth.
+    frame_rad = np.radians(config.sun_azimuth_deg) if _sky(config) else 0.0
+    column = np.mod(ts["heading_rad"][0] - frame_rad, 2 * np.pi) / (np.pi / 4)
     column = np.where(column > 7.5, column - 8, column)
-    ax.plot(time, column, "c.", ms=1.5, label="heading (column units)")
+    ax.plot(time, column, "c.", ms=1.5,
+            label="heading - sun azimuth (column units)" if _sky(config) else "heading (column units)")
     ax.set_ylabel("TB1 column")
     ax.set_xlabel("step")
     ax.set_title("trial 0: TB1 (inverted bump: the dark column follows the heading)")

@@ -26,12 +26,14 @@ import numpy as np
 from neuronav import bind, registry
 from neuronav.angles import angle_difference_rad
 from neuronav.brains.cx import decode_home_vector, stone2017
+from neuronav.brains.sky_compass import sky_stone2017
 from neuronav.config import field
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.motor_noise import stride_noise_field, turn_noise_field
+from neuronav.scenarios.path_integration.inputs import SkyView, compasses, inputs_label, odometers, run_sky
 from neuronav.scenarios.variability import variability_field
 from neuronav.spec.world import PointAgents, World
 
@@ -87,12 +89,31 @@ class PathIntegrationConfig:
     odometry_noise_fraction: float = settings.odometry_noise_field("i2bot")
     turn_noise_sd: float = turn_noise_field()
     stride_noise_fraction: float = stride_noise_field()
+    # The CX's own senses (issue 23): inputs.py in this folder.
+    compass: str = field("true", "heading the CX reads: the body's true heading (true) or its dorsal rims' view of "
+                         "the polarised sky (sky); a comma list (true,sky) is cycled over trials by seed "
+                         "[true, sky or a comma list of them]")
+    odometry: str = field("true", "distance the CX integrates: the true displacement (true) or the step odometer "
+                          "(steps: joint angles and leg loads through the believed legs; strides x believed "
+                          "stride length on the kinematic unicycle; i2bot only); a comma list (true,steps) is "
+                          "cycled by whole cycles of the compass list [true, steps or a comma list of them]")
+    sun_elevation_deg: float = field(45.0, "compass=sky: the sun's elevation (deg)", min=0.0, max=90.0)
+    sun_azimuth_deg: float = field(120.0, "compass=sky: the sun's azimuth, clockwise from +y (north) (deg)",
+                                   min=-360.0, max=360.0)
+    cloud_cover: float = field(0.0, "compass=sky: fraction of the sky overcast (0 clear - 1 overcast: no "
+                               "polarisation)", min=0.0, max=1.0)
+    pol_noise: float = field(0.1, "compass=sky: std of the Gaussian noise on each POL-neuron's response per brain "
+                             "step", min=0.0, max=10.0)
+    compass_gain: float = field(2.0, "compass=sky: gain of the POL -> compass-layer weights (brains/sky_compass.py)",
+                                min_exclusive=0.0, max=20.0)
 
     def cross_check(self) -> None:
         """Rules between settings that hold on every backend (called by :func:`neuronav.config.validate`)."""
         if self.min_acceleration > self.max_acceleration:
             raise ConfigError(f"min_acceleration ({self.min_acceleration:g}) must be <= max_acceleration "
                               f"({self.max_acceleration:g})")
+        compasses(self)
+        odometers(self)
 
 
 class PathIntegration(Scenario):
@@ -109,8 +130,11 @@ class PathIntegration(Scenario):
     # than where it turned back has mu = 1, so no per-trial tortuosity 1 / (1 - mu), and a body that
     # did not move on its way home has no straightness, and one that never left the nest (max_acceleration
     # 0) no tortuosity_mu (it divides by the distance from home at the turn back).
-    optional_metrics = ("homing_steps", "tortuosity", "tortuosity_mu", "homing_time_s", "straightness")
+    # An embodied body that never moved has no odometer ratio (its odometer over its true path length).
+    optional_metrics = ("homing_steps", "tortuosity", "tortuosity_mu", "homing_time_s", "straightness",
+                        "odometer_ratio")
     records_video = True  # on backends that render: the embodied protocol films its first trial
+    condition_columns = ("inputs",)  # compass/odometry of each trial: true/true, sky/steps, ...
 
     def smoke_config(self) -> dict:
         return {"outbound_steps": 120, "inbound_steps": 120, "record_trials": 2}
@@ -166,6 +190,12 @@ class PathIntegration(Scenario):
 
             check_embodied(config, backend)
             return
+        if odometers(config) != ("true",):
+            raise ConfigError(f"odometry={config.odometry!r}: the stone2017 protocol's point agents have no legs to "
+                              f"count strides with; odometry=steps needs protocol=i2bot (a body walked by a gait)")
+        if len(compasses(config)) > 1:
+            raise ConfigError(f"compass={config.compass!r}: a stone2017 run compiles one circuit for all its trials, "
+                              f"so one compass per run (compare true and sky with two runs, or protocol=i2bot)")
         if backend != "kinematic":
             raise ConfigError(f"the stone2017 protocol moves point agents: it runs on the kinematic backend only, "
                               f"not {backend!r} (use protocol=i2bot or auto)")
@@ -184,9 +214,13 @@ class PathIntegration(Scenario):
         return {"tortuosity": float(1.0 / (1.0 - mean_mu)) if mean_mu < 1 else float("nan")}
 
     def statistics(self, config: PathIntegrationConfig) -> Statistics:
-        """One group (the run compares no conditions): success with its Wilson interval and every
-        metric of the protocol's rows (stone2017: closest approach, μ, decode error, homing steps;
-        i2bot: homing time, closest approach, straightness, decode error) with bootstrap intervals."""
+        """Per ``inputs`` (compass/odometry, when ``compass`` or ``odometry`` is a comma list: each against the
+        first combination), else one group: success with its Wilson interval and every metric of the
+        protocol's rows (stone2017: closest approach, μ, decode error, homing steps; i2bot: homing time,
+        closest approach, straightness, decode error, compass error, odometer ratio) with bootstrap intervals."""
+        combinations = [inputs_label(c, o) for o in odometers(config) for c in compasses(config)]
+        if len(combinations) > 1:
+            return Statistics(condition="inputs", reference=combinations[0])
         return Statistics(condition=None)
 
     def compare_overrides(self, backends: list[str]) -> dict:
@@ -211,10 +245,20 @@ class PathIntegration(Scenario):
         engine = registry.load("backend", backend)()
         engine.load(World(), [PointAgents(count=n, mode="stone", drag=config.drag)])
         engine.reset(seed)
-        brain = stone2017(noise=config.noise, memory_gain=config.memory_gain,
-                          memory_leak=config.memory_leak).compile(
-            batch=n, seeds=seeds, dtype=config.dtype, noise_method=config.noise_method)
-        bind(brain.sensors, engine.capabilities.sensors, consumer="stone2017", provider=f"backend {backend!r}")
+        compass = compasses(config)[0]
+        sky_view, frame_rad = None, 0.0
+        if compass == "sky":
+            # The sky compass's TB1 and memory are in the sun's frame: decoded directions + the sun's azimuth.
+            sky = run_sky(config)
+            sky_view, frame_rad = SkyView(sky, World(sky=sky)), sky.sun_azimuth_rad
+            brain = sky_stone2017(noise=config.noise, pol_noise=config.pol_noise, compass_gain=config.compass_gain,
+                                  memory_gain=config.memory_gain, memory_leak=config.memory_leak).compile(
+                batch=n, seeds=seeds, dtype=config.dtype, noise_method=config.noise_method)
+        else:
+            brain = stone2017(noise=config.noise, memory_gain=config.memory_gain,
+                              memory_leak=config.memory_leak).compile(
+                batch=n, seeds=seeds, dtype=config.dtype, noise_method=config.noise_method)
+            bind(brain.sensors, engine.capabilities.sensors, consumer="stone2017", provider=f"backend {backend!r}")
 
         k, recorded = config.record_every, min(n, config.record_trials)
         positions = np.zeros((t_out + t_in + 1, n, 2))
@@ -228,7 +272,11 @@ class PathIntegration(Scenario):
         acceleration_by_step = np.ascontiguousarray(acceleration.T)[:, :, None]
         for t in range(t_out + t_in):
             sensed = engine.read(("heading", "velocity"))
-            motor = brain.step(sensed)["motor"]
+            if sky_view is None:
+                motor = brain.step(sensed)["motor"]
+            else:  # the dorsal rims' view, and the agents' own (body-frame) velocity: no heading is read
+                own_velocity = body_velocity(sensed["velocity"], sensed["heading"][:, 0])
+                motor = brain.step({"pol": sky_view(engine), "body_velocity": own_velocity})["motor"]
             if t < t_out:
                 engine.write({"rotation": rotation_by_step[t], "acceleration": acceleration_by_step[t]})
             else:
@@ -245,7 +293,9 @@ class PathIntegration(Scenario):
         if t_in == 0:
             turnback_memory = brain.memory("CPU4")
 
-        rows, _ = trial_metrics(positions, t_out, turnback_memory, config, seeds)
+        rows, _ = trial_metrics(positions, t_out, turnback_memory, config, seeds, frame_rad)
+        for row in rows:
+            row["inputs"] = inputs_label(compass, "true")
         aggregates = self.aggregate(rows, config)
         timeseries = {
             "position": np.ascontiguousarray(positions[::k].transpose(1, 0, 2)).astype(np.float32),
@@ -333,15 +383,25 @@ def stone_tortuosity_mu(distances: np.ndarray, steps: np.ndarray, home_distance)
     return float(mu[0]) if single else mu
 
 
+def body_velocity(velocity: np.ndarray, heading_rad: np.ndarray) -> np.ndarray:
+    """World-frame velocities (N, 2) of agents at ``heading_rad`` (N,) in their body frames: (forward, left)."""
+    s, c = np.sin(heading_rad), np.cos(heading_rad)
+    return np.stack([velocity[:, 0] * s + velocity[:, 1] * c, -velocity[:, 0] * c + velocity[:, 1] * s], axis=1)
+
+
 def trial_metrics(positions: np.ndarray, t_out: int, turnback_memory: np.ndarray,
-                  config: PathIntegrationConfig, seeds: list[int]) -> tuple[list[dict], np.ndarray]:
-    """Per-trial metric rows and Stone's μ per trial from the positions, shape (T + 1, trials, 2)."""
+                  config: PathIntegrationConfig, seeds: list[int],
+                  frame_rad: float = 0.0) -> tuple[list[dict], np.ndarray]:
+    """Per-trial metric rows and Stone's μ per trial from the positions, shape (T + 1, trials, 2).
+
+    ``frame_rad``: the direction the memory's zero stands for (the sun's azimuth for the sky compass)."""
     homing = np.hypot(positions[t_out:, :, 0], positions[t_out:, :, 1])  # distance to the nest, (T_in + 1, n)
     home_distance = homing[0]
     steps = np.diff(positions[t_out:], axis=0)
     step_lengths = np.hypot(steps[..., 0], steps[..., 1])
     true_home = np.arctan2(-positions[t_out, :, 0], -positions[t_out, :, 1])
     decoded_direction, decoded_distance = decode_home_vector(turnback_memory, config.memory_gain)
+    decoded_direction = decoded_direction + frame_rad
     decode_error = np.degrees(np.abs(angle_difference_rad(decoded_direction, true_home)))
     finite_trials = np.isfinite(positions).all(axis=(0, 2))
     closest_all = homing.min(axis=0)

@@ -9,8 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import new_figure, save
-from neuronav.runs.stats import success_rate
+from neuronav.runs.plotting import condition_strip, new_figure, proportion_points, save
 
 ARENA_X_M, ARENA_Y_M = (0.0, 8.0), (-2.0, 2.0)
 ODOUR_COLOURS = {"on": "tab:green", "off": "tab:grey"}
@@ -106,31 +105,22 @@ def senses_figure(result, config):
 
 
 def times_figure(result, config):
-    """Per odour input: each trial's time to the source (filled, with a box over those that arrived) or
-    the time limit (open circles: not reached); under each column n, the arrivals and their rate's
-    Wilson 95 % interval."""
-    fig, ax = new_figure((5, 4))
+    """Per odour input, left: each arriving trial's time to the source (box plot, every trial, the median
+    with its bootstrap 95 % interval; n counts the arrivals of all trials); right: reaching the source (each
+    trial at 1 or 0, the proportion with its Wilson 95 % interval)."""
+    fig, (ax, rate_ax) = new_figure((8, 4), 1, 2, gridspec_kw={"width_ratios": [1.4, 1]})
     modes = [_odour(t, config) for t in result.trials]
     present = [m for m in ("on", "off") if m in modes] or sorted(set(modes))
-    labels = []
-    for k, mode in enumerate(present):
-        times = np.array([t["time_to_source_s"] for t, m in zip(result.trials, modes) if m == mode], float)
-        reached = np.isfinite(times)
-        spread = np.linspace(-0.15, 0.15, len(times)) if len(times) > 1 else np.zeros(len(times))
-        colour = ODOUR_COLOURS.get(mode, "tab:blue")
-        ax.plot(k + spread[reached], times[reached], "o", color=colour, alpha=0.8, gid=f"reached {mode}",
-                label="reached" if k == 0 else None)
-        ax.plot(k + spread[~reached], np.full((~reached).sum(), config.timeout_s), "o", mfc="none",
-                color="tab:grey", gid=f"not reached {mode}", label="time limit (not reached)" if k == 0 else None)
-        if reached.sum() >= 2:
-            ax.boxplot([times[reached]], positions=[k], widths=0.45, showfliers=False)
-        rate = success_rate(int(reached.sum()), len(times))
-        labels.append(f"odour {mode}\nn={len(times)}, reached {rate['successes']}\n"
-                      f"({rate['ci'][0]:.2f}-{rate['ci'][1]:.2f})")
-    ax.set_xticks(range(len(present)), labels, fontsize=8)
-    ax.set_xlim(-0.6, len(present) - 0.4)
+    colours = {f"odour {m}": ODOUR_COLOURS.get(m, "tab:blue") for m in present}
+    condition_strip(ax, {f"odour {mode}": [t["time_to_source_s"] for t, m in zip(result.trials, modes) if m == mode]
+                         for mode in present}, colours=colours, centre="median", box=True, gid="reached")
     ax.set_ylabel("time to the source (s)")
-    ax.set_ylim(0, config.timeout_s * 1.08)
-    ax.set_title("time to the source (rate's Wilson 95 % interval)", fontsize=9)
-    ax.legend(loc="lower right", fontsize=8)
+    ax.set_ylim(0, config.timeout_s * 1.05)
+    ax.set_title(f"time to the source (limit {config.timeout_s:g} s)", fontsize=9)
+    ax.legend(loc="best", fontsize=7)
+    proportion_points(rate_ax, {f"odour {mode}": [bool(t["success"]) for t, m in zip(result.trials, modes) if m == mode]
+                                for mode in present}, colours=colours, gid="success")
+    rate_ax.set_ylabel("reached the source (1 yes, 0 no)")
+    rate_ax.set_title("reaching the source", fontsize=9)
+    rate_ax.legend(loc="best", fontsize=7)
     return fig

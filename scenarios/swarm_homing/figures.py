@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import new_figure, save
+from neuronav.runs.plotting import condition_strip, new_figure, proportion_points, save
 
 CYCLE_S = 0.64  # neuronav.scenarios.swarm_homing.scenario.CYCLE_S: the trajectories' sample period
 HOMED_RGB, LOST_RGB = "tab:blue", "tab:red"
@@ -58,12 +58,21 @@ def trajectories_figure(result, config):
 
 
 def homing_times_figure(result, config):
-    """Histogram of the reported ants' homing times (s); the ants not home are counted in the title."""
-    times = np.array([row.get("homing_time_s", np.nan) for row in result.trials], float)
-    home = np.isfinite(times)
-    fig, ax = new_figure((6, 4))
-    ax.hist(times[home], bins=min(30, max(5, home.sum() // 5 or 1)), color=HOMED_RGB)
-    ax.set_xlabel("homing time (s)")
-    ax.set_ylabel("ants")
-    ax.set_title(f"{home.sum()} of {len(times)} reported ants home within {config.homing_timeout_s:g} s")
+    """The reported ants, left: each homing time as a point (box plot, the median with its bootstrap 95 %
+    interval; n counts the ants home of all reported); right: getting home (each ant at 1 or 0, the
+    proportion with its Wilson 95 % interval)."""
+    times = [row.get("homing_time_s", np.nan) for row in result.trials]
+    home = [bool(row["success"]) if "success" in row else bool(np.isfinite(t)) for row, t in zip(result.trials, times)]
+    fig, (ax, rate_ax) = new_figure((7, 4), 1, 2, gridspec_kw={"width_ratios": [1.3, 1]})
+    small = len(times) > 200  # thousands of ants: smaller points
+    condition_strip(ax, {"ants": times}, colours={"ants": HOMED_RGB}, centre="median", box=True, gid="homing time",
+                    width=0.5, marker_size=2.0 if small else 5.0)
+    ax.set_ylabel("homing time (s)")
+    ax.set_title(f"homing time (limit {config.homing_timeout_s:g} s)", fontsize=9)
+    ax.legend(loc="best", fontsize=7)
+    drawn = proportion_points(rate_ax, {"ants": home}, colours={"ants": HOMED_RGB}, gid="home", width=0.5)
+    rate_ax.set_ylabel("home (1 yes, 0 no)")
+    low, high = drawn["ants"]["ci"]
+    rate_ax.set_title(f"home: {100 * drawn['ants']['rate']:.0f} % ({100 * low:.0f}–{100 * high:.0f} %)", fontsize=9)
+    rate_ax.legend(loc="best", fontsize=7)
     return fig

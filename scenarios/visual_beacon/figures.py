@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import new_figure, save
+from neuronav.runs.plotting import condition_strip, new_figure, proportion_points, save
 
 MODE_COLOURS = {"left": "tab:blue", "right": "tab:red", "both": "tab:green"}
 MODES = ("left", "right", "both")
@@ -28,7 +28,8 @@ def _modes(result) -> list[str]:
 
 
 def trajectories_figure(result, config):
-    """Top view: every trial's path coloured by its eye mode, the landmark as a black disc."""
+    """Top view: every trial's path coloured by its eye mode, each trial's start (its first recorded
+    position: starts are jittered) as an open triangle, the landmark as a black disc."""
     from matplotlib.patches import Circle
 
     fig, ax = new_figure((6, 7))
@@ -42,7 +43,9 @@ def trajectories_figure(result, config):
         labelled.add(mode)
     ax.add_patch(Circle((0.0, config.landmark_distance_m), 1.0, color="k", gid="landmark"))
     ax.add_patch(Circle((0.0, config.landmark_distance_m), config.success_radius_m, fill=False, ls="--", color="k"))
-    ax.plot(0.0, 0.0, "k^", ms=9, label="start")
+    starts = np.array([path[np.isfinite(path[:, 0])][0] for path in result.timeseries["position_m"]
+                       if np.isfinite(path[:, 0]).any()]).reshape(-1, 2)  # each trial's own (jittered) start
+    ax.plot(starts[:, 0], starts[:, 1], "k^", ms=6, mfc="none", label="start")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
@@ -52,23 +55,22 @@ def trajectories_figure(result, config):
 
 
 def times_figure(result):
-    """Box plot of the time to the landmark per eye mode (successful trials), with the points."""
-    fig, ax = new_figure((5, 4))
+    """Per eye mode: reaching the landmark (each trial at 1 or 0, the proportion with its Wilson 95 %
+    interval) and the time to the landmark of the trials that reached it (box plot, every trial, the
+    median with its bootstrap 95 % interval)."""
+    fig, (ax, rate_ax) = new_figure((9, 4), 1, 2, gridspec_kw={"width_ratios": [1.4, 1]})
     modes = _modes(result)
     present = [m for m in MODES if m in modes]
-    data = [[t["time_to_landmark_s"] for t, m in zip(result.trials, modes)
-             if m == mode and np.isfinite(t["time_to_landmark_s"])] for mode in present]
-    positions = np.arange(1, len(present) + 1)
-    filled = [k for k, d in enumerate(data) if d]
-    if filled:
-        ax.boxplot([data[k] for k in filled], positions=positions[filled], widths=0.5)
-    for k, (mode, values) in enumerate(zip(present, data)):
-        ax.plot(np.full(len(values), positions[k]), values, "o", color=MODE_COLOURS[mode], alpha=0.7,
-                gid=f"times {mode}")
-    ax.set_xticks(positions, [f"{m}\n(n={sum(1 for x in modes if x == m)}, reached {len(d)})"
-                              for m, d in zip(present, data)])
+    proportion_points(rate_ax, {mode: [bool(t["success"]) for t, m in zip(result.trials, modes) if m == mode]
+                                for mode in present}, colours=MODE_COLOURS, gid="reached")
+    rate_ax.set_ylabel("reached the landmark (1 yes, 0 no)")
+    rate_ax.set_title("reaching the landmark")
+    rate_ax.legend(loc="best", fontsize=7)
+    condition_strip(ax, {mode: [t["time_to_landmark_s"] for t, m in zip(result.trials, modes) if m == mode]
+                         for mode in present}, colours=MODE_COLOURS, centre="median", box=True, gid="times")
     ax.set_ylabel("time to the landmark (s)")
-    ax.set_title("finish time by eye mode")
+    ax.set_title("time to the landmark by eye mode")
+    ax.legend(loc="best", fontsize=7)
     return fig
 
 

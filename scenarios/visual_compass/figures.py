@@ -9,14 +9,16 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import break_at_wraps, new_figure, save, trial_colour
+from neuronav.runs.plotting import break_at_wraps, condition_strip, new_figure, proportion_points, save, trial_colour
 
 
 def write_compass_figures(result, config, out_dir: Path) -> list[Path]:
-    """compass.png (trial 0, like Fig. 5c) and heading_error.png (every trial)."""
+    """compass.png (trial 0, like Fig. 5c), heading_error.png (every trial) and error_summary.png (every
+    trial's errors and success as points, with intervals)."""
     out_dir = Path(out_dir)
     return [save(compass_figure(result, config), out_dir / "compass.png"),
-            save(error_figure(result, config), out_dir / "heading_error.png")]
+            save(error_figure(result, config), out_dir / "heading_error.png"),
+            save(error_summary_figure(result, config), out_dir / "error_summary.png")]
 
 
 def compass_figure(result, config, trial: int = 0):
@@ -57,4 +59,25 @@ def error_figure(result, config):
     ax.set_title(f"heading error, {len(result.trials)} trials (grey: ±{config.recovered_deg:g}°)")
     if len(result.trials) <= 10:
         ax.legend(loc="upper right", fontsize=7)
+    return fig
+
+
+def error_summary_figure(result, config):
+    """Left: each trial's mean and final absolute heading error (points, the median with its bootstrap
+    95 % interval); right: success (incremental: mean error within ``recovered_deg``; jump: every jump
+    recovered) as 1 or 0 per trial, the proportion with its Wilson 95 % interval."""
+    rows = [t for t in result.trials if t.get("status", "ok") == "ok"]
+    fig, (ax, rate_ax) = new_figure((8, 4), 1, 2, gridspec_kw={"width_ratios": [1.4, 1]})
+    condition_strip(ax, {"mean |error|": [t["mean_error_deg"] for t in rows],
+                         "final |error|": [t["final_error_deg"] for t in rows]}, centre="median", box=True,
+                    gid="error")
+    ax.axhspan(0.0, config.recovered_deg, color="0.9", zorder=0, gid="recovered band")
+    ax.set_ylabel("heading error (deg)")
+    ax.set_title(f"heading error, {config.rotation} rotation (grey: within {config.recovered_deg:g}°)", fontsize=9)
+    ax.legend(loc="best", fontsize=7)
+    proportion_points(rate_ax, {"trials": [bool(t["success"]) for t in rows]}, gid="success")
+    rate_ax.set_ylabel("success (1 yes, 0 no)")
+    rate_ax.set_title("every jump recovered" if config.rotation == "jump" else
+                      f"mean error within {config.recovered_deg:g}°", fontsize=9)
+    rate_ax.legend(loc="best", fontsize=7)
     return fig

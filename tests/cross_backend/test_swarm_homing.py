@@ -102,7 +102,7 @@ def test_the_trajectory_figure_draws_every_ant_of_the_swarm():
     homing = sum(len(lines[g].get_segments()) for g in ("homing home", "homing lost") if g in lines)
     assert homing == 12
     assert "of 12 home" in figure.axes[0].get_title()
-    assert homing_times_figure(result, config).axes[0].get_xlabel() == "homing time (s)"
+    assert homing_times_figure(result, config).axes[0].get_ylabel() == "homing time (s)"
 
 
 def test_mujoco_refuses_more_ants_than_contact_bits():

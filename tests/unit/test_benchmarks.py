@@ -22,6 +22,8 @@ QUICK = {
     "path_integration_1000": ("--trials", "10", "--baseline-trials", "1", "--repeats", "1"),
     "startup": ("--repeats", "1"),
     "sweep_scaling": ("--trials", "4", "--steps", "100", "--repeats", "1", "--no-dask"),
+    "dorsal_rim_read": ("--reads", "5", "--agents", "20", "--repeats", "1"),
+    "step_odometer": ("--seconds", "0.5", "--repeats", "1", "--every", "1"),
 }
 NUMBER = r"(\d+(?:\.\d+)?)"
 
@@ -51,6 +53,8 @@ def test_benchmark_prints_cpu_and_wall_time(name):
     ("path_integration_1000", 2),  # the speed-up and the 3 s target
     ("vision_speed", 2),  # the MuJoCo panorama and beacon targets
     ("locomotion_speed", 1),
+    ("step_odometer", 1),  # the odometer's overhead on a MuJoCo homing step
+    ("dorsal_rim_read", 6),  # MuJoCo and PyBullet, three scenes each
 ])
 def test_single_threaded_targets_are_judged_on_cpu_time(name, verdicts):
     judged = [line for line in output_of(name).splitlines() if re.search(r"\b(met|MISSED)\b", line)]

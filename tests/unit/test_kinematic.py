@@ -62,7 +62,8 @@ def test_unicycle_turn_rate_is_monotone_in_turn():
 
 def test_bad_commands_and_sensors_are_clear_errors():
     backend = engine(count=2)
-    with pytest.raises(PortError, match="no sensor 'odour'.*available: heading, position, speed, velocity"):
+    with pytest.raises(PortError,
+                       match="no sensor 'odour'.*available: head_pos, head_quat, heading, position, speed, velocity"):
         backend.read(["odour"])
     with pytest.raises(PortError, match="accepts no command 'thrust'"):
         backend.write({"thrust": np.zeros((2, 1))})

@@ -125,7 +125,7 @@ def test_cameras_render_only_when_read(monkeypatch):
 
 def test_bad_cameras_worlds_and_yaws_are_clear_errors():
     backend = engine()
-    with pytest.raises(PortError, match="no sensor 'eye_L'.*available:.*eye, heading, panorama"):
+    with pytest.raises(PortError, match="no sensor 'eye_L'.*available:.*eye, head_pos, head_quat, heading, panorama"):
         backend.read(["eye_L"])
     with pytest.raises(PortError, match="no camera 'eye_L'; available: panorama, eye"):
         backend.render("eye_L")

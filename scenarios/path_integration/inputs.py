@@ -1,0 +1,224 @@
+"""What the CX of embodied path integration reads: its compass and its odometer, true or from the senses.
+
+Compass (``compass``):
+
+- ``true``: the body's heading, with the Gaussian error ``compass_noise_deg`` under ``variability=on``
+  (stone2017's ``heading`` port).
+- ``sky``: the dorsal rims' view of the polarised sky (:class:`neuronav.senses.dorsal_rim.DorsalRim`
+  on the sky of :func:`run_sky`), through the head's real pose on the backend (``head_quat``: pitch and
+  roll on uneven ground change what the rim sees) and, when the world has objects, with the views the
+  scene blocks cast on the backend (``cast_rays``); the circuit is
+  :func:`neuronav.brains.sky_compass.sky_stone2017`, whose TB1 follows the sky: no true heading enters
+  the brain. Its memory is in the sun's frame: a decoded direction plus the sun's azimuth is the world's.
+
+Odometer (``odometry``):
+
+- ``true``: the body's displacement over the gait cycle (or its velocity sensor, ``velocity_input``),
+  scaled by 1 + N(0, ``odometry_noise_fraction``) under ``variability=on``.
+- ``steps``: on an articulated body, the step odometer (:class:`neuronav.bodies.step_odometer.StepOdometer`)
+  updated every control step from the joint angles and leg loads through the leg kinematics of the body
+  the brain believes it has (the desert ant as built, fixed at the start); on the kinematic unicycle,
+  strides × the believed stride length of the commanded stride
+  (:class:`neuronav.bodies.step_odometer.UnicycleStrideOdometer`).
+
+Both odometers give the displacement in the body frame (forward, left); the sky circuit's TN cells read
+it as it is, stone2017's read it turned into the world by the heading the CX reads (the same heading
+its TN encoder turns it back with).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from neuronav.bodies.gaits import segment_pose
+from neuronav.bodies.step_odometer import StepOdometer, UnicycleStrideOdometer
+from neuronav.engine.loop import AgentLoop, Hook
+from neuronav.errors import ConfigError
+from neuronav.senses.dorsal_rim import DorsalRim, rotations_from_quaternions
+from neuronav.senses.sky import Sky
+
+COMPASSES = ("true", "sky")
+ODOMETERS = ("true", "steps")
+# LegOdometer's default sampling period, control steps (its docstring says why every step).
+LEG_ODOMETER_SAMPLE_EVERY = 1
+
+
+def _choices(config, name: str, allowed: tuple[str, ...]) -> tuple[str, ...]:
+    values = tuple(v.strip() for v in str(getattr(config, name)).split(","))
+    if not values or any(v not in allowed for v in values) or len(set(values)) != len(values):
+        raise ConfigError(f"{name}: expected {' or '.join(allowed)}, or a comma list of them without repeats, "
+                          f"got {getattr(config, name)!r}")
+    return values
+
+
+def compasses(config) -> tuple[str, ...]:
+    """The compass modes of ``config.compass`` (one, or a comma list cycled over trials by seed)."""
+    return _choices(config, "compass", COMPASSES)
+
+
+def odometers(config) -> tuple[str, ...]:
+    """The odometer modes of ``config.odometry`` (one, or a comma list cycled by whole cycles of the compasses)."""
+    return _choices(config, "odometry", ODOMETERS)
+
+
+def trial_inputs(config, seed: int) -> tuple[str, str]:
+    """Trial ``seed``'s (compass, odometry): the compass list cycled by seed, the odometry list by whole
+    cycles of the compass list, so every compass meets every odometer."""
+    compass, odometry = compasses(config), odometers(config)
+    return compass[seed % len(compass)], odometry[(seed // len(compass)) % len(odometry)]
+
+
+def inputs_label(compass: str, odometry: str) -> str:
+    """The condition column of a trial: ``compass/odometry`` (``true/true`` is the supervisor's input)."""
+    return f"{compass}/{odometry}"
+
+
+def run_sky(config) -> Sky:
+    """The sky of a run: the sun at ``sun_azimuth_deg`` (clockwise from north, +y) and ``sun_elevation_deg``,
+    ``cloud_cover`` of it overcast."""
+    return Sky(sun_azimuth_rad=float(np.radians(config.sun_azimuth_deg)),
+               sun_elevation_rad=float(np.radians(config.sun_elevation_deg)), cloud_cover=float(config.cloud_cover))
+
+
+def level_rim_mount(body) -> np.ndarray:
+    """The dorsal rims' mounting in the head frame of ``body``: the inverse of the head's rest orientation on
+    the thorax, so the rims look symmetrically about the zenith when the thorax is level and the head at rest.
+
+    The desert ant holds its head 0.2 rad nose-down at rest (``head_pitch``); its rims' directions
+    (:class:`~neuronav.senses.dorsal_rim.DorsalRim`, elevations in a level head frame) are mounted to undo
+    it, as its panoramic camera is (``bodies/desert_ant/body.py``). Joint motion away from rest (the gait's
+    head bob, a turned head) and the thorax's own pitch and roll still tilt the rims. A body without a
+    segment named ``head`` reads the root's pose: no mounting (identity).
+    """
+    if not any(segment.name == "head" for segment in body.segments):
+        return np.eye(3)
+    rotation, _ = segment_pose(body, "head", {})
+    return rotation.T
+
+
+class SkyView:
+    """Reads the dorsal rims of every agent on a backend: POL responses (N, M).
+
+    Parameters
+    ----------
+    sky : Sky
+    world : World
+        Its objects (trees, walls) block the sky: rays from the head along every ommatidium's view are
+        cast on the backend when it has any.
+    rim : DorsalRim, optional
+    mount : ndarray, shape (3, 3), optional
+        The rims' frame in the head frame (:func:`level_rim_mount`; default identity: the kinematic
+        agents' level heads).
+    """
+
+    def __init__(self, sky: Sky, world, rim: DorsalRim | None = None, mount: np.ndarray | None = None) -> None:
+        self.sky, self.rim = sky, DorsalRim() if rim is None else rim
+        self.occludes = bool(world.objects)
+        self.mount = None if mount is None else np.asarray(mount, float)
+
+    def head_rotations(self, backend) -> np.ndarray:
+        """Rim-to-world rotations (N, 3, 3): the backend's ``head_quat`` times the mounting."""
+        rotations = rotations_from_quaternions(backend.read(("head_quat",))["head_quat"].reshape(-1, 4))
+        return rotations if self.mount is None else rotations @ self.mount
+
+    def __call__(self, backend) -> np.ndarray:
+        rotations = self.head_rotations(backend)
+        visible = None
+        if self.occludes:
+            directions = self.rim.sky_directions(rotations)  # (N, M, 3)
+            heads = backend.read(("head_pos",))["head_pos"].reshape(-1, 3)
+            origins = np.repeat(heads, directions.shape[1], axis=0)
+            hits = backend.cast_rays(origins, directions.reshape(-1, 3))
+            visible = ~np.isfinite(hits).reshape(directions.shape[:2])
+        return self.rim.responses(self.sky, rotations, visible)
+
+
+class LegOdometer(Hook):
+    """The step odometer of an articulated body, updated after every ``sample_every``-th control step.
+
+    :meth:`take` gives the displacement since the last take in the body frame of now (forward, left),
+    from the odometer's integrated pose.
+
+    Parameters
+    ----------
+    believed_body : BodySpec
+        The body the brain believes it has (fixed for the trial).
+    sample_every : int
+        Read the proprioception (``joint_pos``, ``contact_force``) and update the odometer every this
+        many control steps (8 ms each), counted from the episode's start (which is always read). It
+        must divide the brain's period (80 control steps) for :meth:`take` to see a fresh sample.
+        Default ``LEG_ODOMETER_SAMPLE_EVERY`` = 1, every control step: sparser samples change what the
+        odometer reads by more than 1 % of the distance walked (6 gait cycles straight: every 2nd step
+        +8.9 % on MuJoCo, −0.7 % on PyBullet; every 8th +17.1 % / −12.0 %; turning at ``turn`` 0.3 every
+        8th integrates 28° / 52° of a true 66° / 98° turn, every step 74° / 85°), because on the engines
+        the set of loaded legs changes every few steps (a tripod's legs unload in mid stance) and an
+        interval with no leg loaded at both of its ends adds nothing. Strides are still marked at
+        every 8th step. Measured with ``python benchmarks/step_odometer.py --sampling``; the cost of
+        each period with ``python benchmarks/step_odometer.py`` (bodies/desert_ant/README.md, "Speed").
+    """
+
+    def __init__(self, believed_body, sample_every: int = LEG_ODOMETER_SAMPLE_EVERY) -> None:
+        if isinstance(sample_every, bool) or not isinstance(sample_every, int | np.integer) or sample_every < 1:
+            raise ConfigError(f"LegOdometer: sample_every must be an int >= 1, got {sample_every!r}")
+        self.odometer = StepOdometer(believed_body)
+        self.sample_every = int(sample_every)
+        self._taken_m = np.zeros(2)
+
+    def initialize_episode(self, loop: AgentLoop) -> None:
+        self.odometer.reset()
+        self._taken_m = np.zeros(2)
+        self._sample(loop)
+
+    def after_step(self, loop: AgentLoop) -> None:
+        if loop.control_steps % self.sample_every == 0:
+            self._sample(loop)
+
+    def _sample(self, loop: AgentLoop) -> None:
+        sensed = loop.backend.read(("joint_pos", "contact_force"))
+        self.odometer.update(sensed["joint_pos"][0], sensed["contact_force"][0])
+
+    def take(self) -> np.ndarray:
+        moved = self.odometer.position_m - self._taken_m
+        self._taken_m = self.odometer.position_m.copy()
+        yaw = self.odometer.yaw_rad  # counter-clockwise, in the frame of the first update
+        c, s = np.cos(yaw), np.sin(yaw)
+        return np.array([c * moved[0] + s * moved[1], -s * moved[0] + c * moved[1]])
+
+
+class StrideCounter(Hook):
+    """The kinematic unicycle's odometer: the believed stride length of each control step's command.
+
+    It counts the command the brain meant (``command``, set by the brain: an efference copy), not the
+    one the legs executed with motor noise, so noise makes it differ from the truth as a real one would.
+    """
+
+    def __init__(self, calibration) -> None:
+        self.odometer = UnicycleStrideOdometer(calibration, agents=1)
+        self._forward_m = 0.0
+        self.command = (0.0, 0.0)
+
+    def initialize_episode(self, loop: AgentLoop) -> None:
+        self.odometer.reset()
+        self._forward_m = 0.0
+
+    def after_step(self, loop: AgentLoop) -> None:
+        turn, stride_rad = self.command
+        self._forward_m += float(self.odometer.update(turn, stride_rad, loop.clocks.control_dt_s)[0])
+
+    def take(self) -> np.ndarray:
+        forward, self._forward_m = self._forward_m, 0.0
+        return np.array([forward, 0.0])
+
+
+def body_to_world(displacement_body, heading_rad: float) -> np.ndarray:
+    """A body-frame (forward, left) vector turned into the world at ``heading_rad`` (clockwise from +y)."""
+    forward, left = displacement_body
+    s, c = np.sin(heading_rad), np.cos(heading_rad)
+    return np.array([forward * s - left * c, forward * c + left * s])
+
+
+def world_to_body(displacement_world, heading_rad: float) -> np.ndarray:
+    """The inverse of :func:`body_to_world`."""
+    x, y = displacement_world
+    s, c = np.sin(heading_rad), np.cos(heading_rad)
+    return np.array([x * s + y * c, -x * c + y * s])
