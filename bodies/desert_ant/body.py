@@ -254,7 +254,7 @@ def _from_i2bot(point) -> tuple[float, float, float]:
 def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: float | None = None,
                masses_kg: Mapping[str, float] | None = None, standing_height_m: float | None = None,
                antenna_yaw_rad: float | None = None, name: str = "desert_ant",
-               leg_segment_factors: Mapping[str, float] | None = None) -> BodySpec:
+               leg_segment_factors: Mapping[str, float] | None = None, ventral_eye: bool = False) -> BodySpec:
     """The Cataglyphis fortis body at ×100 scale (0.1 m in simulation ≈ 1 mm on the ant).
 
     Parameters
@@ -285,6 +285,9 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
         Rest yaw of each antenna, outward from straight ahead, -0.9 to 0.9 rad (default 0.6, I2Bot's);
         smaller brings the odour sites together (at rest 0.43 m apart at 0.6 rad, 0.23 m at 0.25).
     name : str
+    ventral_eye : bool
+        Add the ``ventral`` camera (32×32 planar, 90°, under the thorax looking straight down, image top
+        forward): the optic-flow odometer's eye patch. Default False: the cameras below only.
 
     Returns
     -------
@@ -373,7 +376,8 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
         "scale": scale,
         "control": "torque = kp·(target − q) − kd·q̇, clipped to ±max_torque_nm; control step 8 ms",
     }
-    return BodySpec(name, tuple(segments), tuple(sites), _cameras(scale), spawn_height_m=float(depth + claw_r),
+    cameras = _cameras(scale) + ((_ventral_camera(scale),) if ventral_eye else ())
+    return BodySpec(name, tuple(segments), tuple(sites), cameras, spawn_height_m=float(depth + claw_r),
                     notes=notes)
 
 
@@ -498,6 +502,21 @@ def _antenna_segments(side: str, scape_len: float, funiculus_len: float, scape_r
         Site(f"wind_{side}", f"{prefix}_funiculus", (wind, 0.0, 0.0), "wind"),
     ]
     return segments, sites
+
+
+# The ventral eye patch (``ventral_eye=True``): a small downward camera under the thorax whose image motion
+# is the optic-flow odometer's input (neuronav.senses.optic_flow). 90° and 32 px: 0.36 m above the ground at
+# rest it sees 0.72 m of ground (1.4 checker squares of 0.5 m: edges of both directions in view), 2.25 cm per px.
+VENTRAL_EYE = dict(x=-THORAX["x"], z=-0.07, size_px=32, fov_rad=math.pi / 2.0)
+
+
+def _ventral_camera(scale: float) -> Camera:
+    """The ventral eye: under the thorax's centre, looking straight down, image top toward the head (+x)."""
+    # Camera axes in the thorax frame: x (image right) = -y (body right), y (image top) = +x, z = +z.
+    return Camera("ventral", "thorax", (VENTRAL_EYE["x"] * scale, 0.0, VENTRAL_EYE["z"] * scale),
+                  axis_angle_quat((0.0, 0.0, 1.0), -math.pi / 2.0), width_px=VENTRAL_EYE["size_px"],
+                  height_px=VENTRAL_EYE["size_px"], fov_rad=(VENTRAL_EYE["fov_rad"], VENTRAL_EYE["fov_rad"]),
+                  projection="planar")
 
 
 def _cameras(scale: float) -> tuple[Camera, ...]:

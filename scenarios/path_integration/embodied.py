@@ -44,11 +44,13 @@ from neuronav.errors import ConfigError
 from neuronav.runs.scenario import ScenarioResult
 from neuronav.scenarios.motor_noise import MotorNoise
 from neuronav.scenarios.path_integration.inputs import (
+    FlowOdometer,
     LegOdometer,
     SkyView,
     StrideCounter,
     body_to_world,
     inputs_label,
+    kinematic_ventral_camera,
     level_rim_mount,
     run_sky,
     trial_inputs,
@@ -56,7 +58,7 @@ from neuronav.scenarios.path_integration.inputs import (
 )
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, normal_per_trial, trial_generators
-from neuronav.spec.world import Ground, PointAgents, World
+from neuronav.spec.world import Appearance, Ground, PointAgents, World
 
 CYCLE_S = 0.64
 CONTROL_S = 0.008
@@ -251,23 +253,30 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
     """One foraging trip and homing; returns the metrics row and the per-cycle log."""
     rng = np.random.default_rng([seed, 3])
     heading0 = float(rng.uniform(0.0, 2.0 * np.pi))
-    world = World(ground=Ground(size_m=80.0))
+    world = World(ground=Ground(size_m=80.0), appearance=Appearance(ground_texture=config.ground_texture))
     engine_class = registry.load("backend", backend_name)
+    compass, odometry = trial_inputs(config, seed)
     if backend_name == "kinematic":
         engine, gait, physics_dt = engine_class(timestep_s=CONTROL_S), None, CONTROL_S
-        body = PointAgents(count=1, mode="unicycle")
+        body = PointAgents(count=1, mode="unicycle",
+                           cameras=(kinematic_ventral_camera(),) if odometry == "optic_flow" else ())
     else:
         engine = engine_class(timestep_s=config.embodied_timestep_s)
-        body = desert_ant()
+        body = desert_ant(ventral_eye=odometry == "optic_flow")
         gait, physics_dt = make_gait("tripod", body), config.embodied_timestep_s
     noise = homing_noise(config, [seed], noise_cycles(config.outbound_s + config.homing_timeout_s))
-    compass, odometry = trial_inputs(config, seed)
     if compass == "sky":
-        world = World(ground=world.ground, sky=run_sky(config))
+        world = World(ground=world.ground, appearance=world.appearance, sky=run_sky(config))
     hooks, odometer = [], None
     if odometry == "steps":
         # The body the brain believes it has: the desert ant as built (fixed for the trial).
         odometer = StrideCounter(engine.calibration) if backend_name == "kinematic" else LegOdometer(body)
+        hooks.append(odometer)
+    elif odometry == "optic_flow":
+        # The ventral eye and the height the brain believes it at: above the ground at the body's rest pose.
+        camera = next(c for c in body.cameras if c.name == "ventral")
+        height_m = camera.pos_m[2] if backend_name == "kinematic" else body.spawn_height_m + camera.pos_m[2]
+        odometer = FlowOdometer(camera, height_m)
         hooks.append(odometer)
     brain = HomingBrain(config, seed, config.outbound_s, None if noise is None else {k: v[0] for k, v in noise.items()},
                         compass=compass, odometer=odometer,

@@ -93,10 +93,14 @@ class PathIntegrationConfig:
     compass: str = field("true", "heading the CX reads: the body's true heading (true) or its dorsal rims' view of "
                          "the polarised sky (sky); a comma list (true,sky) is cycled over trials by seed "
                          "[true, sky or a comma list of them]")
-    odometry: str = field("true", "distance the CX integrates: the true displacement (true) or the step odometer "
+    odometry: str = field("true", "distance the CX integrates: the true displacement (true), the step odometer "
                           "(steps: joint angles and leg loads through the believed legs; strides x believed "
-                          "stride length on the kinematic unicycle; i2bot only); a comma list (true,steps) is "
-                          "cycled by whole cycles of the compass list [true, steps or a comma list of them]")
+                          "stride length on the kinematic unicycle) or the image motion of a ventral eye on the "
+                          "ground (optic_flow: needs ground_texture=checker); i2bot only; a comma list (true,steps) "
+                          "is cycled by whole cycles of the compass list [true, steps, optic_flow or a comma list]")
+    ground_texture: str = field("checker", "i2bot: the ground the cameras see: checker squares of 0.5 m or plain "
+                                "(one colour: the optic-flow odometer sees no motion on it)",
+                                choices=("checker", "plain"))
     sun_elevation_deg: float = field(45.0, "compass=sky: the sun's elevation (deg)", min=0.0, max=90.0)
     sun_azimuth_deg: float = field(120.0, "compass=sky: the sun's azimuth, clockwise from +y (north) (deg)",
                                    min=-360.0, max=360.0)
@@ -190,6 +194,10 @@ class PathIntegration(Scenario):
 
             check_embodied(config, backend)
             return
+        if "optic_flow" in odometers(config):
+            raise ConfigError(f"odometry={config.odometry!r}: the stone2017 protocol's point agents move in steps "
+                              f"over no rendered ground, so a ventral eye has no image motion to read; "
+                              f"odometry=optic_flow needs protocol=i2bot (a body walking over a textured ground)")
         if odometers(config) != ("true",):
             raise ConfigError(f"odometry={config.odometry!r}: the stone2017 protocol's point agents have no legs to "
                               f"count strides with; odometry=steps needs protocol=i2bot (a body walked by a gait)")

@@ -159,3 +159,18 @@ def test_the_rims_are_mounted_level_on_the_ants_nose_down_head(backend):
             tilt[name] = np.arccos(np.clip(up[2], -1.0, 1.0))
     assert tilt["bare"] == pytest.approx(0.2, abs=0.05)
     assert tilt["mounted"] < 0.05
+
+
+def test_physics_ant_reads_its_path_from_ventral_optic_flow_on_textured_ground_only():
+    """odometry=optic_flow: the ventral eye's image motion measures the outbound path within 20 % on the checker
+    ground; on a plain ground it sees no motion and the odometer reads nothing. Point agents refuse it."""
+    available("mujoco")
+    short = {"protocol": "i2bot", "outbound_s": 6.0, "homing_timeout_s": 0.64, "odometry": "optic_flow"}
+    textured = run({**short, "ground_texture": "checker"}, "mujoco", trials=1)[0]
+    plain = run({**short, "ground_texture": "plain"}, "mujoco", trials=1)[0]
+    assert textured["inputs"] == plain["inputs"] == "true/optic_flow"
+    assert 0.8 < textured["odometer_ratio"] < 1.2, textured
+    assert plain["odometer_ratio"] < 0.05, plain
+    with pytest.raises(ConfigError, match="odometry=optic_flow needs protocol=i2bot"):
+        load_scenario("path-integration").check(apply_overrides(PathIntegrationConfig, {"odometry": "optic_flow"}),
+                                                "kinematic")

@@ -247,3 +247,16 @@ def test_only_the_claws_are_adhesive():
     contact = desert_ant().sites_of_kind("contact")
     assert [s.name for s in contact if s.adhesive] == [f"{leg}_claw" for leg in LEGS]
     assert not any(s.adhesive for s in contact if "antenna" in s.name)
+
+
+def test_the_ventral_eye_is_one_downward_camera_added_on_request(ant):
+    """``ventral_eye=True`` adds exactly the ``ventral`` camera, looking straight down from under the thorax;
+    the default body has the same cameras as before."""
+    eyed = desert_ant(ventral_eye=True)
+    assert [c.name for c in eyed.cameras] == [c.name for c in ant.cameras] + ["ventral"]
+    assert "ventral" not in [c.name for c in ant.cameras]
+    ventral = eyed.cameras[-1]
+    assert ventral.segment == "thorax" and ventral.pos_m[2] < 0.0
+    # Cameras look along their -z axis: straight down in the thorax frame.
+    assert np.allclose(quat_to_matrix(ventral.quat) @ np.array([0.0, 0.0, -1.0]), [0.0, 0.0, -1.0])
+    assert eyed.spawn_height_m + ventral.pos_m[2] == pytest.approx(0.36, abs=0.01)
