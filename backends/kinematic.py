@@ -20,7 +20,9 @@ Eyes: the cameras of :class:`~neuronav.spec.world.PointAgents` are rendered by r
 sits in the agent's frame: forward f = (sin h, cos h, 0), left l = (-cos h, sin h, 0), up z; its
 position is (x, y, 0) + pos.x f + pos.y l + pos.z up and its frame [f l up] @ R(camera.quat).
 ``set_scene_yaw`` turns the world's objects about the vertical axis through the origin (the ground
-stays), as on the physics backends.
+stays), as on the physics backends. Compound eyes (``PointAgents.compound_eyes``, placed as cameras are)
+are sensors of their names, (M, 2) green and UV in [0, 1] per ommatidium, read by casting 7 rays per
+ommatidium for every agent at once (:class:`neuronav.senses.compound_eye_rays.CompoundEyeReader`).
 
 Head: ``head_pos`` (N, 3) m is (x, y, ``PointAgents.head_height_m``) and ``head_quat`` (N, 4) the turn about
 z from the heading (the head's +x is the forward direction); ``cast_rays`` tests rays, stacked over
@@ -115,7 +117,8 @@ class KinematicBackend(BackendBase):
     """Batched point agents; implements the backend protocol (see docs/architecture.md).
 
     ``capabilities`` (the class attribute) lists the sensors and commands of camera-less agents;
-    after :meth:`load` the instance's own adds one sensor per camera (shape (H, W), "grey [0, 1]").
+    after :meth:`load` the instance's own adds one sensor per camera (shape (H, W), "grey [0, 1]") and per
+    compound eye (shape (M, 2), "green, UV [0, 1]").
 
     Parameters
     ----------
@@ -164,12 +167,17 @@ class KinematicBackend(BackendBase):
         if len(bodies) != 1 or not isinstance(bodies[0], PointAgents):
             raise ConfigError("the kinematic backend simulates exactly one PointAgents batch")
         cameras = self._check_cameras(world, bodies[0].cameras)
+        compound_eyes = self._check_compound_eyes(world, bodies[0].compound_eyes, cameras)
         self._agents = bodies[0]
         self.world = world
         self._cameras = {c.name: c for c in cameras}
         self._casters = {}  # built on a camera's first read
         self._scene_yaw_rad = 0.0
         sensors = tuple(SensorSpec(c.name, (c.height_px, c.width_px), "grey [0, 1]") for c in cameras)
+        # Compound eyes: (M, 2), green and UV per ommatidium (neuronav.senses.compound_eye), read by rays.
+        self._compound_eyes = {e.name: e for e in compound_eyes}
+        self._eye_readers = {}  # built on an eye's first read
+        sensors += tuple(SensorSpec(e.name, (e.n_ommatidia, 2), "green, UV [0, 1]") for e in compound_eyes)
         motors = ()
         antennae = bodies[0].antennae
         if antennae:
@@ -181,7 +189,11 @@ class KinematicBackend(BackendBase):
             self._antenna_base = np.array([a.base_m for a in antennae])  # (A, 3), agent frame
             self._antenna_reach = np.array([a.tip_m for a in antennae]) - self._antenna_base
         self.chemistry = Chemistry(world.odour)
-        self.capabilities = replace(type(self).capabilities, sensors=type(self).capabilities.sensors + sensors,
+        base = type(self).capabilities.sensors  # stone's agent moves in units per step, the unicycle in m and m/s
+        if bodies[0].mode == "unicycle":
+            metric = {"velocity": "m/s", "speed": "m/s", "position": "m"}
+            base = tuple(replace(spec, units=metric.get(spec.name, spec.units)) for spec in base)
+        self.capabilities = replace(type(self).capabilities, sensors=base + sensors,
                                     motors=type(self).capabilities.motors + motors, can_render=bool(cameras))
         self.reset()
 
@@ -227,6 +239,34 @@ class KinematicBackend(BackendBase):
         self._commands = {m.name: np.zeros((n,) + m.shape) for m in self.capabilities.motors}
         self._push = None  # (batch, 2) velocity change per step from apply_force, for the next step() call
         self._time_s = 0.0
+
+    def reset_agents(self, agents, position_m, heading_rad=None, yaw_rad: float | None = None) -> None:
+        """Put only ``agents`` back at rest at ``position_m``, as :meth:`reset` puts every agent.
+
+        ``agents`` is a sequence of agent indices (K of them) or a boolean mask of N; ``position_m`` is
+        (x, y) or (K, 2) m, the heading (or ``yaw_rad``, heading = π/2 − yaw, the same arithmetic as
+        :meth:`reset`) one number or K. Those agents' velocity and commands become zero and a pending
+        :meth:`apply_force` push on them is dropped; the other agents, the time and the world's plume
+        are left as they are (a vector environment's per-env episodes:
+        :mod:`neuronav.scenarios.envs.vector_env`). A bad index, shape or non-finite value is a ConfigError.
+        """
+        n = self.batch
+        try:
+            index = np.arange(n)[np.asarray(agents) if np.ndim(agents) else [agents]]
+        except (IndexError, TypeError, ValueError):
+            raise ConfigError(f"kinematic reset_agents: agents must be indices in 0..{n - 1} or a boolean mask "
+                              f"of {n}, got {agents!r}") from None
+        k = index.size
+        position = _start_values("position_m", position_m, (k, 2), "(x, y) or (K, 2) m")
+        angle = ("yaw_rad", yaw_rad) if yaw_rad is not None else ("heading_rad", heading_rad)
+        heading = np.zeros(k) if angle[1] is None else _start_values(angle[0], angle[1], (k,), "one number or K rad")
+        self.position[index] = position
+        self.velocity[index] = 0.0
+        self.heading[index] = np.pi / 2 - heading if yaw_rad is not None else heading
+        for command in self._commands.values():
+            command[index] = 0.0
+        if self._push is not None:
+            self._push[index] = 0.0
 
     def write(self, commands: dict[str, np.ndarray]) -> None:
         """Set commands (held until overwritten); each of shape (batch, 1) or (batch,).
@@ -286,6 +326,8 @@ class KinematicBackend(BackendBase):
                 out[name] = self._odour_at(self.antenna_tips())
             elif name == "wind":
                 out[name] = self._wind_at(self.antenna_tips())
+            elif name in self._compound_eyes:
+                out[name] = self.compound_eye_values(name)
             else:
                 out[name] = grey(self.render_batch(name))
         return out
@@ -349,16 +391,36 @@ class KinematicBackend(BackendBase):
         """Where ``camera`` is on every agent: eye positions (N, 3) and frames (N, 3, 3), columns the
         camera's x, y, z axes in the world (see the module doc)."""
         spec = self._camera(camera)
+        return self._mount_frames(spec.pos_m, spec.quat)
+
+    def _mount_frames(self, pos_m, quat) -> tuple[np.ndarray, np.ndarray]:
+        """Where a mount at ``pos_m`` / ``quat`` in the agent's frame is on every agent: (N, 3) m, (N, 3, 3)."""
         sin, cos = np.sin(self.heading), np.cos(self.heading)
         zero, one = np.zeros_like(sin), np.ones_like(sin)
         forward, left = np.stack([sin, cos, zero], 1), np.stack([-cos, sin, zero], 1)
         up = np.stack([zero, zero, one], 1)
-        x, y, z = (float(v) for v in spec.pos_m)
+        x, y, z = (float(v) for v in pos_m)
         eyes = np.stack([self.position[:, 0], self.position[:, 1], zero], 1) + x * forward + y * left + z * up
         frame = np.stack([forward, left, up], axis=2)  # (N, 3, 3), columns f, l, up
         # frame @ R(quat) written out per element: the same bits whatever the batch.
-        rotations = (frame[:, :, :, None] * quat_to_matrix(spec.quat)[None, None]).sum(axis=2)
+        rotations = (frame[:, :, :, None] * quat_to_matrix(quat)[None, None]).sum(axis=2)
         return eyes, rotations
+
+    def compound_eye_values(self, eye: str) -> np.ndarray:
+        """Every agent's ommatidia of compound eye ``eye``, (N, M, 2) green and UV in [0, 1], by rays
+        (:class:`neuronav.senses.compound_eye_rays.CompoundEyeReader`, 7 per ommatidium). The eye sits in the
+        agent's frame as a camera does (:meth:`camera_frames`); its frame is x forward, y left, z up."""
+        spec = self._compound_eyes.get(eye) if self._agents is not None else None
+        if spec is None:
+            raise PortError(f"kinematic backend has no compound eye {eye!r}; available: "
+                            f"{', '.join(self._compound_eyes) or 'none'}")
+        reader = self._eye_readers.get(eye)
+        if reader is None:
+            from neuronav.senses.compound_eye_rays import CompoundEyeReader  # lazily: only agents with eyes need it
+
+            reader = self._eye_readers[eye] = CompoundEyeReader(self.world, spec)
+        eyes, rotations = self._mount_frames(spec.pos_m, spec.quat)
+        return reader.read(eyes, rotations, self._scene_yaw_rad)
 
     def apply_force(self, body: int, site: str, force: np.ndarray) -> None:
         """Push agent ``body`` with a world-frame ``force`` (2 or 3 numbers; z is ignored) during every
@@ -420,6 +482,22 @@ class KinematicBackend(BackendBase):
                 raise ConfigError(f"camera {camera.name!r}: quat must be a unit quaternion (w, x, y, z), "
                                   f"got {camera.quat!r}")
         return cameras
+
+    @staticmethod
+    def _check_compound_eyes(world: World, eyes, cameras) -> tuple:
+        """The agents' compound eyes, refused when their names clash or the ground is not the plane z = 0."""
+        eyes = tuple(eyes)
+        if not eyes:
+            return eyes
+        clash = {e.name for e in eyes} & ({s.name for s in KinematicBackend.capabilities.sensors}
+                                          | {c.name for c in cameras})
+        if clash:
+            raise ConfigError(f"PointAgents compound_eyes: {sorted(clash)} would hide a sensor or camera of that name")
+        ground = world.ground
+        if not ground.is_flat or ground.kind == "wall":
+            raise ConfigError(f"kinematic backend: compound eyes need a flat ground without a wall (their rays' "
+                              f"ground is the plane z = 0), got a {ground.kind!r} ground")
+        return eyes
 
     def _camera(self, camera: str) -> Camera:
         self._require()

@@ -1,6 +1,6 @@
 """Benchmark: what one read of the dorsal rim costs an agent, per backend (issue 23, "Speed").
 
-One read is what the path-integration scenario's sky compass does every control step
+One read is what the path-integration scenario's sky compass does once per gait cycle (80 control steps)
 (:class:`neuronav.scenarios.path_integration.inputs.SkyView`, called here): the head's rotation from
 the sensor port (``head_quat``), and, only when the world has objects, the ommatidia's world directions
 (:meth:`neuronav.senses.dorsal_rim.DorsalRim.sky_directions`, 2 x 80 ommatidia by default), the head's

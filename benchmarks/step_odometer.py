@@ -5,17 +5,18 @@
 :class:`neuronav.engine.loop.AgentLoop` (physics 2 ms, control 8 ms, brain 0.64 s) walking the FK tripod
 on flat ground, reading its ``position`` every control step as the homing loop's arrival check does,
 with and without the :class:`neuronav.scenarios.path_integration.inputs.LegOdometer` hook (which reads
-``joint_pos`` and ``contact_force`` and updates a
-:class:`neuronav.bodies.step_odometer.StepOdometer` every ``sample_every`` control steps). The
-brain, once per 80 control steps, is left out: the denominator is the smaller one and every ratio an
-upper bound. The loops walk the same walk, interleaved (``--repeats`` times each, the order rotated);
+``joint_pos`` and ``contact_load`` every ``sample_every`` control steps into a buffer, which each take
+runs through a :class:`neuronav.bodies.step_odometer.StepOdometer` at once). The brain is left out (the
+denominator is the smaller one and every ratio an upper bound) but its take, once per 80 control steps,
+is made. The loops walk the same walk, interleaved (``--repeats`` times each, the order rotated);
 the best CPU (``time.process_time``) and wall time per control step of each is printed, and the
 overhead in % for each ``sample_every`` of ``--every``; beside it, the CPU time of the hook's two parts
-(the reads, the update) clocked around each call inside the same walks (on a shared machine the
+(the reads, the updates) clocked around each call in walks of their own (on a shared machine the
 difference of two loops carries the noise of both; the clocked time does not see what the hook costs
-the loop around it, cache misses for one). On MuJoCo the first ``contact_force`` read
-after a step solves the current state's constraints once more (``mj_forwardSkip``, see
-``backends/mujoco/backend.py``): most of the reads' cost. Target (issue 23): the odometer adds under
+the loop around it, cache misses for one). ``contact_load`` is the legs' load in the last physics step,
+which MuJoCo's contact sensors compute within the step; ``contact_force`` (the current state's forces)
+would solve the constraints once more on MuJoCo (``mj_forwardSkip``, see ``backends/mujoco/backend.py``)
+and cost more than the odometer's own work. Target (issue 23): the odometer adds under
 5 % to a MuJoCo homing step, judged on the loops' CPU time at the hook's default ``sample_every``
 (``LEG_ODOMETER_SAMPLE_EVERY``): the verdict line says "met" or "MISSED".
 
@@ -67,8 +68,11 @@ from neuronav.bodies.desert_ant.body import STANDING_HEIGHT_M  # noqa: E402
 from neuronav.bodies.desert_ant.manipulations import MANIPULATIONS, leg_length_ratio, manipulated_ant  # noqa: E402
 from neuronav.bodies.gaits import make_gait  # noqa: E402
 from neuronav.bodies.step_odometer import StepOdometer  # noqa: E402
+from neuronav.config import build_config  # noqa: E402
 from neuronav.engine.loop import AgentLoop, Clocks, Hook  # noqa: E402
+from neuronav.scenarios.path_integration.embodied import CONTROL_S, embodied_trial  # noqa: E402
 from neuronav.scenarios.path_integration.inputs import LEG_ODOMETER_SAMPLE_EVERY, LegOdometer  # noqa: E402
+from neuronav.scenarios.path_integration.scenario import PathIntegrationConfig  # noqa: E402
 from neuronav.spec.world import World  # noqa: E402
 
 TIMESTEP_S = 0.002
@@ -78,7 +82,7 @@ STRIDE_RAD = np.radians(15.0)
 # What the embodied homing loop reads each control step without an odometer (scenarios/path_integration:
 # its brain's heading, position and velocity), and what the step odometer adds.
 HOMING_SENSORS = ("heading", "position", "velocity")
-ODOMETER_SENSORS = ("joint_pos", "contact_force")
+ODOMETER_SENSORS = LegOdometer.SENSORS  # joint_pos, contact_load
 TARGET_OVERHEAD = 0.05
 
 
@@ -93,11 +97,12 @@ def walk(engine, gait, odometer: StepOdometer | None, controls: int, odometer_re
         if odometer_reads and step % every == 0:
             sensed = engine.read(ODOMETER_SENSORS)
             if odometer is not None:
-                odometer.update(sensed["joint_pos"][0], sensed["contact_force"][0])
+                odometer.update(sensed["joint_pos"][0], sensed["contact_load"][0])
 
 
 class ClockedLegOdometer(LegOdometer):
-    """The hook, with the CPU time of its reads and of its update clocked around each call."""
+    """The hook, with the CPU time of its reads (and buffering) and of its updates (the flush of each
+    take) clocked around each call."""
 
     def __init__(self, believed_body, sample_every: int = 1) -> None:
         super().__init__(believed_body, sample_every)
@@ -105,19 +110,24 @@ class ClockedLegOdometer(LegOdometer):
 
     def _sample(self, loop: AgentLoop) -> None:
         started = time.process_time()
-        sensed = loop.backend.read(ODOMETER_SENSORS)
-        read = time.process_time()
-        self.odometer.update(sensed["joint_pos"][0], sensed["contact_force"][0])
-        self.reads_s += read - started
-        self.update_s += time.process_time() - read
+        super()._sample(loop)
+        self.reads_s += time.process_time() - started
+
+    def flush(self) -> None:
+        started = time.process_time()
+        super().flush()
+        self.update_s += time.process_time() - started
 
 
-def homing_walk(loop: AgentLoop, controls: int) -> None:
+def homing_walk(loop: AgentLoop, controls: int, hook: LegOdometer | None = None) -> None:
     """``controls`` control steps of the homing loop: the loop's step (gait, physics, hooks) and the
-    arrival check's ``position`` read."""
-    for _ in range(controls):
+    arrival check's ``position`` read; every gait cycle (the brain's period) the CX takes the odometer's
+    displacement (``hook.take()``), as the homing brain does."""
+    for step in range(1, controls + 1):
         loop.step()
         loop.backend.read(("position",))
+        if hook is not None and step % CYCLE_STEPS == 0:
+            hook.take()
 
 
 def overhead(seconds: float, repeats: int, everies: list[int]) -> bool:
@@ -137,17 +147,20 @@ def overhead(seconds: float, repeats: int, everies: list[int]) -> bool:
         for repeat in range(repeats):
             shift = repeat % len(sides)
             for side in sides[shift:] + sides[:shift]:  # rotate the order
-                hook = None if side is None else ClockedLegOdometer(body, sample_every=side)
+                hook = None if side is None else LegOdometer(body, sample_every=side)
                 loop = AgentLoop(engine, gait, clocks, hooks=[] if hook is None else [hook], stride_rad=STRIDE_RAD)
                 loop.reset(seed=0)
-                if hook is not None:
-                    hook.reads_s = hook.update_s = 0.0
                 cpu, wall = time.process_time(), time.perf_counter()
-                homing_walk(loop, controls)
+                homing_walk(loop, controls, hook)
                 cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
                 best[side] = [min(best[side][0], cpu), min(best[side][1], wall)]
-                if hook is not None:
-                    clocked[side] = [min(clocked[side][0], hook.reads_s), min(clocked[side][1], hook.update_s)]
+            for side in everies:  # the breakdown, in walks of their own (clocking costs time itself)
+                hook = ClockedLegOdometer(body, sample_every=side)
+                loop = AgentLoop(engine, gait, clocks, hooks=[hook], stride_rad=STRIDE_RAD)
+                loop.reset(seed=0)
+                hook.reads_s = hook.update_s = 0.0
+                homing_walk(loop, controls, hook)
+                clocked[side] = [min(clocked[side][0], hook.reads_s), min(clocked[side][1], hook.update_s)]
     per = {side: [1e3 * t / controls for t in times] for side, times in best.items()}
     base_cpu, base_wall = per[None]
     print(f"MuJoCo tripod in the AgentLoop, {controls} control steps of 8 ms (physics 2 ms), one core; best of "
@@ -259,7 +272,7 @@ def manipulations(backends: list[str], cycles: int, distal_stilts: bool = False)
                 sensed = engine.read(("body_pos", *ODOMETER_SENSORS))
                 start = sensed["body_pos"][0, :2].copy()
                 odometer = StepOdometer(believed)
-                odometer.update(sensed["joint_pos"][0], sensed["contact_force"][0])
+                odometer.update(sensed["joint_pos"][0], sensed["contact_load"][0])
                 walk(engine, gait, odometer, cycles * CYCLE_STEPS)
                 end = engine.read(["body_pos"])["body_pos"][0, :2]
             true_m = float(np.hypot(*(end - start))) / cycles
@@ -282,6 +295,51 @@ def bodies(distal_stilts: bool) -> dict:
     return named
 
 
+class RidingLegOdometer(LegOdometer):
+    """A LegOdometer that rides along in a trial without feeding its brain: sampled as in odometry=steps,
+    taken once per gait cycle as the homing brain takes it."""
+
+    def after_step(self, loop: AgentLoop) -> None:
+        super().after_step(loop)
+        if loop.control_steps % CYCLE_STEPS == 0:
+            self.take()
+
+
+def homing_trials(trials: int, repeats: int) -> bool:
+    """Part (a'): whole path-integration trials on MuJoCo (protocol i2bot, compass and odometry true),
+    seeds 0 .. trials-1, each without and with a step odometer riding along (the same walk: the odometer
+    does not steer), interleaved; CPU and wall time per control step of the whole trials (the engine's
+    build included on both sides); True when the odometer adds under the target."""
+    config = build_config(PathIntegrationConfig, {"protocol": "i2bot", "compass": "true", "odometry": "true"})
+    sides = ("without", "with")
+    best = {side: [[np.inf, np.inf] for _ in range(trials)] for side in sides}
+    steps = {}
+    for repeat in range(repeats):
+        for seed in range(trials):
+            for side in (sides if (repeat + seed) % 2 == 0 else sides[::-1]):
+                probe = (RidingLegOdometer(desert_ant()),) if side == "with" else ()
+                cpu, wall = time.process_time(), time.perf_counter()
+                _, log = embodied_trial(config, "mujoco", seed, extra_hooks=probe)
+                cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+                steps[side, seed] = float(np.asarray(log["time_s"][-1])) / CONTROL_S
+                best[side][seed] = [min(best[side][seed][0], cpu), min(best[side][seed][1], wall)]
+    per = {side: [1e3 * sum(best[side][s][k] for s in range(trials)) / sum(steps[side, s] for s in range(trials))
+                  for k in (0, 1)] for side in sides}
+    print(f"MuJoCo path-integration trials (protocol i2bot, compass and odometry true), seeds 0-{trials - 1}, "
+          f"best of {repeats}; CPU and wall time per control step of the whole trials")
+    print(f"{'':<44} {'cpu ms':>7} {'wall ms':>7} {'cpu +%':>7} {'wall +%':>7}")
+    base_cpu, base_wall = per["without"]
+    print(f"{'homing trial':<44} {base_cpu:>7.4f} {base_wall:>7.4f}")
+    cpu, wall = per["with"]
+    print(f"{'+ the step odometer riding along':<44} {cpu:>7.4f} {wall:>7.4f} "
+          f"{100 * (cpu - base_cpu) / base_cpu:>7.1f} {100 * (wall - base_wall) / base_wall:>7.1f}")
+    total = (cpu - base_cpu) / base_cpu
+    met = total < TARGET_OVERHEAD
+    print(f"target (on CPU time): the step odometer adds {100 * total:.1f} % < {100 * TARGET_OVERHEAD:g} % to a "
+          f"MuJoCo homing trial's step: {'met' if met else 'MISSED'}")
+    return met
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=4.0, help="simulated seconds per timed walk")
@@ -289,6 +347,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--every", default="1,2,4,8", help="(a), (c): the hook's sample_every values, comma list "
                         "(control steps; (a) adds the default, (c) adds 1)")
     parser.add_argument("--sampling", action="store_true", help="part (c) instead of the timing")
+    parser.add_argument("--homing-trials", type=int, default=3,
+                        help="(a'): whole MuJoCo homing trials per odometry (seeds 0..N-1); 0 leaves them out")
     parser.add_argument("--turns", default="0,0.3", help="(c): turn commands, comma list")
     parser.add_argument("--manipulations", action="store_true", help="part (b) instead of the timing")
     parser.add_argument("--cycles", type=int, default=6, help="(b), (c): gait cycles walked after start-up")
@@ -311,7 +371,11 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if not (args.seconds >= 0.1 and args.repeats >= 1):
         parser.error("need --seconds >= 0.1 and --repeats >= 1")
+    if args.homing_trials < 0:
+        parser.error("--homing-trials: an int >= 0")
     overhead(args.seconds, args.repeats, everies)
+    if args.homing_trials:
+        homing_trials(args.homing_trials, min(args.repeats, 2))
     return 0
 
 

@@ -109,6 +109,10 @@ class _LegChains:
                 basis[k, i, 0, :3, 3] = seg.pos_m
                 basis[k, i, 1, :3, :3] = fixed @ cross
                 basis[k, i, 2, :3, :3] = -(fixed @ cross @ cross)
+        # feet_many carries the claw point from the claw's link to the root, one link at a time: the rotation
+        # parts (A, B, C) of each link stacked as (links, n, 9, 3), and each link's offset (links, n, 3).
+        self._rotations = np.ascontiguousarray(basis[:, :, :, :3, :3].reshape(links, n, 9, 3))
+        self._offsets = np.ascontiguousarray(basis[:, :, 0, :3, 3])
         # (links·n, 16, 3) @ (links·n, 3, 1) -> every link's flattened transform.
         self._basis = np.ascontiguousarray(np.moveaxis(basis.reshape(links * n, 3, 16), 1, 2))
         self._coefficients = np.ones((links * n, 3, 1))
@@ -130,6 +134,54 @@ class _LegChains:
                 transforms = transforms[:-1]
             transforms = transforms[0::2] @ transforms[1::2]
         return (transforms[0] @ point)[:, :3, 0]
+
+    def feet_many(self, joint_pos: np.ndarray) -> np.ndarray:
+        """Claw centres (T, L, 3) in the body frame for T joint vectors ``joint_pos`` (T, J).
+
+        The same transforms as :meth:`feet`, applied to the claw point from its own link toward the root
+        (p ← o + A p + sin θ · B p + cos θ · C p per link) rather than composed as 4 × 4 matrices: for
+        many samples, vectors through each link cost less than products of matrices.
+        """
+        links, n = self._shape[:2]
+        # Samples last: each link's rotation parts multiply every sample's point in one (9, 3) @ (3, T) per leg.
+        angles = joint_pos[:, self._joint_index].T.reshape(links, n, 1, len(joint_pos))
+        sines, cosines = np.sin(angles), np.cos(angles)
+        point = np.repeat(self._claws[:, :3], len(joint_pos), axis=2)  # (n, 3, T)
+        for k in range(links - 1, -1, -1):
+            parts = self._rotations[k] @ point  # (n, 9, T): A p, B p, C p
+            point = self._offsets[k][:, :, None] + parts[:, :3] + sines[k] * parts[:, 3:6] + cosines[k] * parts[:, 6:]
+        return point.transpose(2, 0, 1)
+
+
+def rigid_motions_2d(before: np.ndarray, after: np.ndarray, used: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`rigid_motion_2d` for T point sets at once, each over the points ``used`` marks.
+
+    Parameters
+    ----------
+    before, after : ndarray, shape (T, L, 2)
+    used : ndarray of bool, shape (T, L)
+
+    Returns
+    -------
+    translation : ndarray, shape (T, 2)
+        Zero where no point is used.
+    angle_rad : ndarray, shape (T,)
+        Zero where fewer than two points are used (one point: a pure translation, as in the
+        one-set rule).
+    """
+    weight = used.astype(float)
+    n = weight.sum(axis=1)
+    safe_n = np.maximum(n, 1.0)
+    a = (weight[..., None] * after).sum(axis=1) / safe_n[:, None]  # centroids
+    b = (weight[..., None] * before).sum(axis=1) / safe_n[:, None]
+    cross = (weight * (after[..., 0] * before[..., 1] - after[..., 1] * before[..., 0])).sum(axis=1)
+    dot = (weight * (after[..., 0] * before[..., 0] + after[..., 1] * before[..., 1])).sum(axis=1)
+    angle = np.arctan2(cross - n * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]),
+                       dot - n * (a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1]))
+    angle = np.where(n >= 2, angle, 0.0)
+    c, s = np.cos(angle), np.sin(angle)
+    translation = np.stack([b[:, 0] - (c * a[:, 0] - s * a[:, 1]), b[:, 1] - (s * a[:, 0] + c * a[:, 1])], axis=1)
+    return np.where((n >= 1)[:, None], translation, 0.0), angle
 
 
 def rigid_motion_2d(before, after) -> tuple[tuple[float, float], float]:
@@ -252,15 +304,27 @@ class StepOdometer:
                               f"{self.believed_body.name!r}), got {joints.size}")
         return joints
 
-    def update(self, joint_pos, contact_force) -> np.ndarray:
+    def _loads(self, contact, label: str) -> np.ndarray:
+        """Each contact site's load (..., C) N from its forces (..., C, 3) or its loads (..., C)."""
+        contact = np.asarray(contact, float)
+        count = self.contact_count
+        if contact.ndim >= 2 and contact.shape[-2:] == (count, 3):
+            return np.linalg.norm(contact, axis=-1)
+        if contact.ndim >= 1 and contact.shape[-1] == count:
+            return contact
+        raise ConfigError(f"StepOdometer.{label}: the contact reading must have shape ({count},) (contact_load) "
+                          f"or ({count}, 3) (contact_force), got {contact.shape}")
+
+    def update(self, joint_pos, contact) -> np.ndarray:
         """Body displacement (2,) m (forward, left) since the last update, from this update's proprioception.
 
         Parameters
         ----------
         joint_pos : array_like, shape (J,) (or (1, J))
             Joint angles (rad) in the believed body's joint order.
-        contact_force : array_like, shape (C, 3) (or (1, C, 3))
-            Force on each contact site (N), the backend's ``contact_force`` order.
+        contact : array_like, shape (C,) or (C, 3) (or with a leading 1)
+            Each contact site's load (N, the backend's ``contact_load``) or its force (N, ``contact_force``,
+            whose norm is the load), in the backend's contact-site order.
 
         Returns
         -------
@@ -268,15 +332,11 @@ class StepOdometer:
             In the body frame of the previous update; zero at the first update and with no leg in
             stance at both updates.
         """
-        forces = np.asarray(contact_force, float).reshape(-1, 3)
-        if len(forces) != self.contact_count:
-            raise ConfigError(f"StepOdometer.update: contact_force must have shape ({self.contact_count}, 3), "
-                              f"got {np.shape(contact_force)}")
+        loads = self._loads(np.asarray(contact, float).reshape(-1, *np.shape(contact)[-1:]), "update").reshape(-1)
         joints = self._joints(joint_pos)
         feet = self._chains.feet(joints)
-        rows = forces.tolist()
-        threshold = self.contact_threshold_n**2
-        stance = [x * x + y * y + z * z > threshold for x, y, z in (rows[row] for row in self.claw_rows)]
+        threshold = self.contact_threshold_n
+        stance = [bool(load > threshold) for load in loads[self.claw_rows]]
         feet_xy = feet[:, :2].tolist()
         dx = dy = 0.0
         previous, was = self._feet_xy, self._stance
@@ -291,6 +351,50 @@ class StepOdometer:
         self._follow_swing(float(joints[self._swing_joint]))
         self._feet_xy, self._stance = feet_xy, stance
         return np.array([dx, dy])
+
+    def update_many(self, joint_pos, contact) -> np.ndarray:
+        """:meth:`update` for T successive samples at once (the same rules, in array operations).
+
+        Parameters
+        ----------
+        joint_pos : array_like, shape (T, J)
+        contact : array_like, shape (T, C) loads or (T, C, 3) forces
+
+        Returns
+        -------
+        ndarray, shape (T, 2)
+            Each sample's displacement (forward, left) in the body frame of the sample before it, as
+            :meth:`update` returns them one by one (equal to rounding).
+        """
+        joints = np.asarray(joint_pos, float)
+        if joints.ndim != 2 or joints.shape[1] != self.joint_count:
+            raise ConfigError(f"StepOdometer.update_many: joint_pos must have shape (T, {self.joint_count}), "
+                              f"got {joints.shape}")
+        loads = self._loads(contact, "update_many")
+        if loads.ndim != 2 or len(loads) != len(joints):
+            raise ConfigError(f"StepOdometer.update_many: the contact reading must have one row per joint_pos row "
+                              f"({len(joints)}), got shape {np.shape(contact)}")
+        if not len(joints):
+            return np.zeros((0, 2))
+        feet = self._chains.feet_many(joints)[:, :, :2]
+        stance = loads[:, self.claw_rows] > self.contact_threshold_n
+        first = self._feet_xy is None
+        previous_feet = np.concatenate([feet[:1] if first else np.array(self._feet_xy)[None], feet[:-1]])
+        previous_stance = np.concatenate([np.zeros((1, len(LEGS)), bool) if first else np.array([self._stance]),
+                                          stance[:-1]])
+        moved, turns = rigid_motions_2d(previous_feet, feet, stance & previous_stance)
+        # Each displacement into the odometer's frame by the yaw before its own turn.
+        yaw_before = self.yaw_rad + np.concatenate([[0.0], np.cumsum(turns)[:-1]])
+        c, s = np.cos(yaw_before), np.sin(yaw_before)
+        xs = self._x_m + np.cumsum(c * moved[:, 0] - s * moved[:, 1])
+        ys = self._y_m + np.cumsum(s * moved[:, 0] + c * moved[:, 1])
+        swing = joints[:, self._swing_joint].tolist()
+        for x_m, y_m, angle_rad in zip(xs.tolist(), ys.tolist(), swing):
+            self._x_m, self._y_m = x_m, y_m
+            self._follow_swing(angle_rad)
+        self.yaw_rad = float(yaw_before[-1] + turns[-1])
+        self._feet_xy, self._stance = feet[-1].tolist(), stance[-1].tolist()
+        return moved
 
     def _follow_swing(self, angle_rad: float) -> None:
         """Track the reference leg's ThCz turning points; the end of each protraction closes a stride."""

@@ -80,8 +80,11 @@ def episode_return(env: gymnasium.Env, policy, seed: int) -> tuple[float, bool]:
 
 def train_cem(generations: int = 12, population: int = 16, elite: int = 4, episodes: int = 2,
               eval_episodes: int = 8, seed: int = 0, backend: str = "kinematic",
-              settings: dict | None = None) -> tuple[LinearPolicy, list[dict]]:
+              settings: dict | None = None, make=None) -> tuple[LinearPolicy, list[dict]]:
     """Cross-entropy method over :class:`LinearPolicy`; returns the mean policy and the curve.
+
+    ``make``: a function that returns the environment to train on (default: :func:`make_env` with
+    ``backend`` and ``settings``); its observation must have ``home_vector``.
 
     The curve has one row per generation: ``generation``, ``episodes`` (training episodes before
     it), ``policy_return`` and ``policy_success`` (the Gaussian's mean policy before this
@@ -91,7 +94,7 @@ def train_cem(generations: int = 12, population: int = 16, elite: int = 4, episo
     """
     if not (generations >= 1 and population >= 2 and 1 <= elite <= population and episodes >= 1):
         raise ValueError("need generations >= 1, population >= 2, 1 <= elite <= population, episodes >= 1")
-    env = make_env(backend, settings)
+    env = make_env(backend, settings) if make is None else make()
     low, high = env.action_space.low, env.action_space.high
     rng = np.random.default_rng(seed)
     mean, std = np.zeros(6), np.full(6, 1.0)

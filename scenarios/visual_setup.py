@@ -16,6 +16,7 @@ import numpy as np
 from neuronav import registry
 from neuronav.bodies.antennae import point_antennae
 from neuronav.bodies.desert_ant import desert_ant
+from neuronav.bodies.desert_ant.body import point_agent_compound_eyes
 from neuronav.bodies.gaits import make_gait, segment_pose
 from neuronav.spec.body import BodySpec, Camera, quat_to_matrix
 from neuronav.spec.world import PointAgents
@@ -54,11 +55,12 @@ def point_agent_cameras(body: BodySpec) -> tuple[Camera, ...]:
 
 def make_engine(backend_name: str, timestep_s: float, **ant_options):
     """(engine, body, gait, physics step) of one trial: the ant (``desert_ant(**ant_options)``, e.g.
-    ``antenna_length_m``) on a physics backend, or the kinematic unicycle carrying the ant's cameras
-    (rendered only when read) and antennae."""
+    ``antenna_length_m``, ``compound_eyes=True``) on a physics backend, or the kinematic unicycle carrying
+    the ant's cameras (rendered only when read), compound eyes (when it has them) and antennae."""
     engine_class = registry.load("backend", backend_name)
     ant = desert_ant(**ant_options)
     if backend_name == "kinematic":
-        body = PointAgents(count=1, mode="unicycle", cameras=point_agent_cameras(ant), antennae=point_antennae(ant))
+        body = PointAgents(count=1, mode="unicycle", cameras=point_agent_cameras(ant), antennae=point_antennae(ant),
+                           compound_eyes=point_agent_compound_eyes(ant))
         return engine_class(timestep_s=CONTROL_S), body, None, CONTROL_S
     return engine_class(timestep_s=timestep_s), ant, make_gait("tripod", ant), timestep_s

@@ -10,6 +10,9 @@ Rendering is headless: ``MUJOCO_GL`` defaults to ``egl`` and is set here, before
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# Before dm_control starts EGL: Mesa then rasterises in the calling thread, safe after fork
+# (neuronav.backends.mujoco.gl_contexts).
+os.environ.setdefault("LP_NUM_THREADS", "0")
 
 from neuronav.backends.dm_control.backend import DmControlBackend  # noqa: E402
 

@@ -22,6 +22,9 @@ from __future__ import annotations
 import os
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# Before dm_control starts EGL: Mesa then rasterises in the calling thread, safe after fork
+# (neuronav.backends.mujoco.gl_contexts).
+os.environ.setdefault("LP_NUM_THREADS", "0")
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402

@@ -19,7 +19,8 @@
 - :func:`environment` — a ``composer.Environment`` of a task.
 
 The action is the locomotion command (``turn`` θ in [-1, 1], ``stride`` S_l in rad; outside its
-bounds, not finite or of another shape: a :class:`~neuronav.errors.PortError`), held for one
+bounds it is clipped to them, as the Gymnasium environment does; not finite, not real numbers or of
+another shape: a :class:`~neuronav.errors.PortError`), held for one
 control period (``cycle_s``, the scenarios' brain period) and walked by the gait given (its targets
 written every ``control_s``). The episode ends at the task's goal (``discount`` 0) or at its time
 limit (``discount`` 1: truncated, dm_env's convention).
@@ -34,6 +35,9 @@ import xml.etree.ElementTree as ET
 from dataclasses import replace
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# Before dm_control starts EGL: Mesa then rasterises in the calling thread, safe after fork
+# (neuronav.backends.mujoco.gl_contexts).
+os.environ.setdefault("LP_NUM_THREADS", "0")
 
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
@@ -53,7 +57,7 @@ PREFIX = ENTITY_NAME + "/"  # PyMJCF's scope of the attached ant
 FREE_JOINT = "free"  # the free joint of the ant's attachment frame
 # MJCF sections the split knows: the body's subtree and its actuators go to the entity, the rest to the arena.
 _ARENA_SECTIONS = ("compiler", "option", "visual", "asset", "worldbody")
-_ENTITY_SECTIONS = ("actuator",)
+_ENTITY_SECTIONS = ("actuator", "sensor")
 
 
 def pymjcf_name(name: str) -> str:
@@ -136,12 +140,13 @@ def composer_names(names: ModelNames, free_joint: str | None) -> ModelNames:
 
 
 def composer_body(body: BodySpec) -> BodySpec:
-    """``body`` with its segments, joints and sites named as in the composer model; cameras keep their
-    (port) names, mounted on the prefixed segments."""
+    """``body`` with its segments, joints and sites named as in the composer model; cameras and compound eyes
+    keep their (port) names, mounted on the prefixed segments."""
     if any("/" in n for n in [s.name for s in body.segments] + body.joint_names + [s.name for s in body.sites]):
         raise ConfigError(f"dm_control composer: body {body.name!r} has a segment, joint or site name with '/'")
     cameras = tuple(replace(c, segment=PREFIX + c.segment) for c in body.cameras)
-    return replace(prefixed_body(body, PREFIX), cameras=cameras)
+    eyes = tuple(replace(e, segment=PREFIX + e.segment) for e in body.compound_eyes)
+    return replace(prefixed_body(body, PREFIX), cameras=cameras, compound_eyes=eyes)
 
 
 class AntEntity(composer.Entity):
@@ -276,14 +281,15 @@ class PortTask(composer.Task):
     def before_step(self, physics, action, random_state) -> None:
         spec = self._action_spec
         try:
-            command = np.asarray(action, dtype=float).reshape(-1)
+            array = np.asarray(action)
         except (TypeError, ValueError):
-            command = np.full(0, np.nan)
-        if (command.shape != spec.shape or not np.isfinite(command).all()
-                or (command < spec.minimum).any() or (command > spec.maximum).any()):
+            array = np.asarray(None)
+        command = array.astype(float).reshape(-1) if array.dtype.kind in "biuf" else np.full(0, np.nan)
+        if command.shape != spec.shape or not np.isfinite(command).all():
             raise PortError(f"action must be (turn in [{spec.minimum[0]:g}, {spec.maximum[0]:g}], stride_rad in "
-                            f"[{spec.minimum[1]:g}, {spec.maximum[1]:.4g}]), finite; got {action!r}")
-        self._command = command
+                            f"[{spec.minimum[1]:g}, {spec.maximum[1]:.4g}]), finite real numbers (outside the bounds: "
+                            f"clipped); got {action!r}")
+        self._command = np.clip(command, spec.minimum, spec.maximum)  # the Gymnasium environment's rule too
         self._previous = self._state
 
     def before_substep(self, physics, action, random_state) -> None:

@@ -21,14 +21,22 @@ Cameras
 Body cameras follow :mod:`neuronav.senses.vision` (the shared base composes their images): this module
 renders the planar views it asks for, flat-shaded, in one GL context of its own. Per camera frame
 the scene is updated once; every view (a planar eye, or a panorama's cube faces) is drawn into its
-own viewport of one offscreen buffer with its own frustum (independent horizontal and vertical
-fields of view, clipped at ``NEAR_M``..``FAR_M``), and the buffer is read once, colour and depth.
+own viewport of one offscreen buffer (side by side, in rows when they overflow its width) with its own
+frustum (independent horizontal and vertical fields of view, clipped at ``NEAR_M``..``FAR_M``), and the
+buffer is read once, colour and depth. Compound eyes' cube faces (all the eyes of one read together,
+:mod:`neuronav.senses.compound_eye_views`) are drawn in the spectral colouring: the world's geoms take their
+green-and-UV colours, untextured, for the scene updates (one per face, with only the objects that face can
+show: a compound eye's faces look all around), and get their own back at once.
 Flat shading: the scene's only light is an ambient headlight of 1 (no diffuse, specular, shadows,
 reflections, fog, haze or skybox), so each surface shows exactly its rgba; 2D textures are sampled
 nearest: the checker (one texel per square) and the odour trails' floor image
 (:mod:`neuronav.senses.trail_floor`, on a plane just above the ground: each pixel shows one of its texels,
 as the kinematic ray caster paints it). Pixels left at the far plane are the sky mask. The body
-(geom group ``BODY_GROUP``) is drawn only for a camera that ``sees_body``.
+(geom group ``BODY_GROUP``) is drawn only for a camera that ``sees_body``. A world object whose bounding
+sphere lies outside every view of a read is left out of that read's scene (exact: it could not cover a
+pixel; the eyes of the 40-tree forest draw a third of its trees). The GL context is the process's
+(:mod:`neuronav.backends.mujoco.gl_contexts`: kept across backends, safe after ``fork``); the eyes'
+``MjrContext`` has no shadow map.
 ``"follow"`` is the shared follow view (:func:`neuronav.engine.articulated.follow_view`): the free camera
 looks at its target from its distance, with the model's free-camera field of view set to it; it is
 lit (headlight and sun) with the World's sky and floor.
@@ -50,7 +58,15 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 
-from neuronav.backends.mujoco.mjcf import BODY_GROUP, HORIZON_GROUP, SCENE_BODY, ModelNames, compile_model  # noqa: E402
+from neuronav.backends.mujoco import gl_contexts  # noqa: E402 -- sets LP_NUM_THREADS=0 (fork-safe rendering)
+from neuronav.backends.mujoco.mjcf import (  # noqa: E402
+    BODY_GROUP,
+    HORIZON_GROUP,
+    LOAD_SENSOR_PREFIX,
+    SCENE_BODY,
+    ModelNames,
+    compile_model,
+)
 from neuronav.engine.articulated import ArticulatedBackend, FollowView  # noqa: E402
 from neuronav.errors import SimulationError  # noqa: E402
 from neuronav.senses.vision import FAR_M, NEAR_M, View  # noqa: E402
@@ -102,6 +118,7 @@ class MujocoBackend(ArticulatedBackend):
         self.data: mujoco.MjData | None = None
         self.names: ModelNames | None = None
         self._renderers: dict[tuple[int, int], mujoco.Renderer] = {}
+        self._renderers_pid = os.getpid()  # the process that made the follow view's renderers
         self._eyes: _FlatRenderer | None = None
         self._pending: list[tuple[int, np.ndarray, np.ndarray]] = []
 
@@ -246,10 +263,28 @@ class MujocoBackend(ArticulatedBackend):
         position, rotation = self.data.xpos[segment], self.data.xmat[segment].reshape(3, 3)
         return position + rotation @ np.asarray(camera.pos_m, float), rotation @ quat_to_matrix(camera.quat)
 
-    def _render_views(self, views: list[View], sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+    def _render_views(self, views: list[View], sees_body: bool,
+                      spectral: bool = False) -> list[tuple[np.ndarray, np.ndarray]]:
+        if self._eyes is not None and self._eyes.pid != os.getpid():  # forked: the parent's, never touched
+            self._eyes.close()
+            self._eyes = None
         if self._eyes is None:
             self._eyes = _FlatRenderer(self.model)
-        return self._eyes.render(self.model, self.data, views, sees_body)
+        return self._eyes.render(self.model, self.data, views, sees_body,
+                                 self._spectral_colours() if spectral else None)
+
+    def _spectral_colours(self) -> tuple[np.ndarray, np.ndarray]:
+        """The world's geoms (ids) and their rgba in the spectral colouring (``spectral_world``): the
+        objects' geoms (the scene body's, in the World's order) in their ``spectral``, every other geom of
+        the world body (ground, horizon, wall, trail plane) in ``ground_green_uv``; built once per model."""
+        if getattr(self, "_spectral", None) is None or self._spectral[0] is not self.model:
+            model, world = self.model, self.world
+            objects = np.flatnonzero(model.geom_bodyid == self._scene_body) if self._scene_body >= 0 else []
+            ground = np.flatnonzero((model.geom_bodyid == 0) & np.isin(model.geom_group, (0, HORIZON_GROUP)))
+            rgba = [(0.0, *world.appearance.ground_green_uv, 1.0)] * len(ground)
+            rgba += [(0.0, *obj.spectral, 1.0) for obj in world.objects][:len(objects)]
+            self._spectral = (model, np.concatenate([ground, objects]).astype(int), np.array(rgba, np.float32))
+        return self._spectral[1], self._spectral[2]
 
     def _turn_scene(self, yaw_rad: float) -> None:
         if self._scene_body < 0:
@@ -295,6 +330,21 @@ class MujocoBackend(ArticulatedBackend):
             geom_ids = ids(mujoco.mjtObj.mjOBJ_GEOM, geoms)
             self._site_of_geom[geom_ids] = index
             self._site_geoms.append(geom_ids)
+        # contact_load: each contact site's rows of sensordata (its geoms' net-force contact sensors, 3 each).
+        # Found by the geom each sensor watches (a composer entity renames the sensors with the geoms).
+        sensor_of_geom = {int(model.sensor_objid[s]): s for s in range(model.nsensor)
+                          if model.sensor_type[s] == mujoco.mjtSensor.mjSENS_CONTACT
+                          and model.sensor_objtype[s] == mujoco.mjtObj.mjOBJ_GEOM}
+        self._load_rows = []
+        for geom_ids in self._site_geoms:
+            missing = [int(g) for g in geom_ids if int(g) not in sensor_of_geom]
+            assert not missing, f"contact geoms {missing} have no load sensor ({LOAD_SENSOR_PREFIX}...): see mjcf.py"
+            self._load_rows.append(np.concatenate([model.sensor_adr[sensor_of_geom[int(g)]] + np.arange(3)
+                                                   for g in geom_ids]))
+        self._load_sites = np.repeat(np.arange(len(self._load_rows)), [len(rows) // 3 for rows in self._load_rows])
+        self._load_rows = np.concatenate(self._load_rows) if self._load_rows else np.zeros(0, int)
+        if len(self._load_rows) and (np.diff(self._load_rows) == 1).all():  # consecutive: a view, not a copy
+            self._load_rows = slice(int(self._load_rows[0]), int(self._load_rows[-1]) + 1)
         self._camera_segments = {c.name: int(ids(mujoco.mjtObj.mjOBJ_BODY, [c.segment])[0]) for c in body.cameras}
         self._segment_ids: dict[str, int] = {}
         self._scene_body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, SCENE_BODY)
@@ -428,6 +478,32 @@ class MujocoBackend(ArticulatedBackend):
     def _set_joint_targets(self, targets: np.ndarray) -> None:
         self.data.ctrl[:] = targets
 
+    def _sampler(self, names: tuple[str, ...]):
+        """Joint angles and contact loads straight from the model's arrays (one index each); other
+        sensors as :meth:`read` reads them."""
+        if names != ("joint_pos", "contact_load") or len(self._load_sites) != len(self._contact_sites):
+            return super()._sampler(names)
+        data, joints, rows = self.data, self._qpos, self._load_rows
+        out = np.empty(len(joints) + len(self._contact_sites))
+        loads = out[len(joints):]
+
+        def sample() -> np.ndarray:
+            np.take(data.qpos, joints, out=out[:len(joints)])
+            net = data.sensordata[rows].reshape(-1, 3)
+            np.sqrt(np.einsum("ij,ij->i", net, net), out=loads)
+            return out.copy()
+        return sample
+
+    def _contact_loads(self) -> np.ndarray:
+        """(C,) N: each contact site's net contact force in the last physics step, from the model's contact
+        sensors (MuJoCo computes them in every step's acceleration stage: reading them solves nothing)."""
+        net = self.data.sensordata[self._load_rows].reshape(-1, 3)
+        if len(net) == len(self._contact_sites):  # one geom per site (the desert ant)
+            return np.sqrt(np.einsum("ij,ij->i", net, net))
+        summed = np.zeros((len(self._contact_sites), 3))
+        np.add.at(summed, self._load_sites, net)
+        return np.linalg.norm(summed, axis=1)
+
     def _contact_forces(self) -> np.ndarray:
         """World-frame total force ON each contact site's geoms, summed over their contacts."""
         model, data = self.model, self.data
@@ -461,6 +537,9 @@ class MujocoBackend(ArticulatedBackend):
     # -- rendering -----------------------------------------------------------------------------
     def _renderer(self, width: int, height: int) -> mujoco.Renderer:
         key = (int(width), int(height))
+        if self._renderers_pid != os.getpid():  # forked: the parent's renderers are never touched
+            self._close_renderers(eyes=False)
+            self._renderers_pid = os.getpid()
         if key not in self._renderers:
             self._renderers[key] = mujoco.Renderer(self.model, height=key[1], width=key[0])
         return self._renderers[key]
@@ -477,11 +556,16 @@ class MujocoBackend(ArticulatedBackend):
         camera.elevation = float(np.degrees(np.arcsin(np.clip(look[2], -1.0, 1.0))))
         return camera
 
-    def _close_renderers(self) -> None:
+    def _close_renderers(self, eyes: bool = True) -> None:
+        """Free the follow view's renderers (and the eyes' with ``eyes``); a forked child only drops its
+        parent's (:mod:`~neuronav.backends.mujoco.gl_contexts`)."""
         for renderer in self._renderers.values():
-            renderer.close()
+            if self._renderers_pid == os.getpid():
+                renderer.close()
+            else:
+                gl_contexts.abandon(renderer)
         self._renderers.clear()
-        if self._eyes is not None:
+        if eyes and self._eyes is not None:
             self._eyes.close()
             self._eyes = None
 
@@ -501,20 +585,28 @@ class MujocoBackend(ArticulatedBackend):
             pass
 
 
+# The eyes' shadow map size (px): the smallest, as the eyes draw no shadows.
+EYE_SHADOW_PX = 1
+# The geom group a world geom outside every view of a read is moved to for that read's scene update (not drawn).
+CULLED_GROUP = 5
+
+
 class _FlatRenderer:
     """Body-camera views, flat-shaded, in one GL context: one scene update and one read per camera frame."""
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self.width, self.height = int(model.vis.global_.offwidth), int(model.vis.global_.offheight)
-        self._gl = mujoco.GLContext(self.width, self.height)
-        self._gl.make_current()
+        self.pid = os.getpid()
+        self._gl = gl_contexts.acquire(self.width, self.height)  # kept across the backends of the process
         # No multisampling: an edge pixel shows one surface's colour, never a blend (the follow view keeps it).
-        samples = int(model.vis.quality.offsamples)
-        model.vis.quality.offsamples = 0
+        # No shadow map (the eyes draw no shadows): MuJoCo's default 4096 x 4096 one cost ~35 ms per context.
+        quality = model.vis.quality
+        samples, shadow_px = int(quality.offsamples), int(quality.shadowsize)
+        quality.offsamples, quality.shadowsize = 0, EYE_SHADOW_PX
         try:
             self._context = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
         finally:
-            model.vis.quality.offsamples = samples
+            quality.offsamples, quality.shadowsize = samples, shadow_px
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._nearest_textures(model)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom))
@@ -526,6 +618,8 @@ class _FlatRenderer:
         self._option.geomgroup[0] = self._option.geomgroup[HORIZON_GROUP] = 1
         self._perturb, self._camera = mujoco.MjvPerturb(), mujoco.MjvCamera()
         self._buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+        # The world's bounded geoms (objects: trees, landmarks), which a read may cull; planes (rbound 0) never.
+        self._cullable = np.flatnonzero((model.geom_group == 0) & (model.geom_rbound > 0))
 
     def _nearest_textures(self, model: mujoco.MjModel) -> None:
         """Sample 2D textures nearest, without mipmaps: a checker square is exactly its colour at any distance."""
@@ -539,42 +633,99 @@ class _FlatRenderer:
             GL.glTexParameteri(GL.GL_TEXTURE_2D, GL.GL_TEXTURE_MAG_FILTER, GL.GL_NEAREST)
         GL.glBindTexture(GL.GL_TEXTURE_2D, 0)
 
-    def render(self, model: mujoco.MjModel, data: mujoco.MjData, views: list[View],
-               sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
-        total = sum(view.width_px for view in views)
-        tallest = max(view.height_px for view in views)
-        if total > self.width or tallest > self.height:
-            raise SimulationError(f"mujoco backend: body-camera views of {total}x{tallest} px do not fit the "
-                                  f"{self.width}x{self.height} offscreen buffer")
+    def render(self, model: mujoco.MjModel, data: mujoco.MjData, views: list[View], sees_body: bool,
+               spectral: tuple[np.ndarray, np.ndarray] | None = None) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Each view's uint8 image and sky mask. ``spectral``: geom ids and the rgba they are drawn in for
+        this read (untextured; the model's own colours are back right after the scene update)."""
+        places, total, tallest = self._layout(views)
         self._gl.make_current()
-        scene, context = self._scene, self._context
         self._option.geomgroup[BODY_GROUP] = int(sees_body)
-        mujoco.mjv_updateScene(model, data, self._option, self._perturb, self._camera,
-                               int(mujoco.mjtCatBit.mjCAT_STATIC) | int(mujoco.mjtCatBit.mjCAT_DYNAMIC), scene)
-        # Flat shading: one ambient light of 1, nothing else, so colour = rgba (times the texture).
-        light = scene.lights[0]
-        light.headlight, light.castshadow = 1, 0
-        light.ambient[:], light.diffuse[:], light.specular[:] = 1.0, 0.0, 0.0
-        scene.nlight = 1
-        left = 0
-        for view in views:
-            self._frame(view)
-            mujoco.mjr_render(mujoco.MjrRect(left, 0, view.width_px, view.height_px), scene, context)
-            left += view.width_px
+        # A compound eye's cube faces look all around: each face gets its own scene, of the objects in it.
+        groups = [[k] for k in range(len(views))] if spectral is not None else [list(range(len(views)))]
+        for group in groups:
+            self._update_scene(model, data, [views[k] for k in group], spectral)
+            for k in group:
+                self._frame(views[k])
+                left, bottom = places[k]
+                mujoco.mjr_render(mujoco.MjrRect(left, bottom, views[k].width_px, views[k].height_px), self._scene,
+                                  self._context)
         whole = mujoco.MjrRect(0, 0, total, tallest)
         if (tallest, total) not in self._buffers:  # readPixels fills contiguous arrays of the read's size
             self._buffers[tallest, total] = (np.zeros((tallest, total, 3), dtype=np.uint8),
                                              np.zeros((tallest, total), dtype=np.float32))
         rgb, depth = self._buffers[tallest, total]
-        mujoco.mjr_readPixels(rgb, depth, whole, context)
-        # GL rows run bottom-up: each view is the bottom of its column block, flipped.
-        rendered, left = [], 0
-        for view in views:
-            rows = slice(view.height_px - 1, None, -1)
+        mujoco.mjr_readPixels(rgb, depth, whole, self._context)
+        # GL rows run bottom-up: each view is its block of the buffer, flipped.
+        rendered = []
+        for view, (left, bottom) in zip(views, places):
+            rows = slice(bottom + view.height_px - 1, bottom - 1 if bottom else None, -1)
             block = slice(left, left + view.width_px)
             rendered.append((rgb[rows, block].copy(), depth[rows, block] >= 1.0))
-            left += view.width_px
         return rendered
+
+    def _update_scene(self, model: mujoco.MjModel, data: mujoco.MjData, views: list[View],
+                      spectral: tuple[np.ndarray, np.ndarray] | None) -> None:
+        """The scene of what ``views`` can show (:meth:`_cull`), in the spectral colours if given, flat-lit."""
+        scene = self._scene
+        culled = self._cull(model, data, views)
+        if spectral is not None:
+            ids, rgba = spectral
+            kept_rgba, kept_matid = model.geom_rgba[ids].copy(), model.geom_matid[ids].copy()
+            model.geom_rgba[ids], model.geom_matid[ids] = rgba, -1
+        try:
+            mujoco.mjv_updateScene(model, data, self._option, self._perturb, self._camera,
+                                   int(mujoco.mjtCatBit.mjCAT_STATIC) | int(mujoco.mjtCatBit.mjCAT_DYNAMIC), scene)
+        finally:
+            model.geom_group[culled] = 0
+            if spectral is not None:
+                model.geom_rgba[ids], model.geom_matid[ids] = kept_rgba, kept_matid
+        # Flat shading: one ambient light of 1, nothing else, so colour = rgba (times the texture).
+        light = scene.lights[0]
+        light.headlight, light.castshadow = 1, 0
+        light.ambient[:], light.diffuse[:], light.specular[:] = 1.0, 0.0, 0.0
+        scene.nlight = 1
+
+    def _layout(self, views: list[View]) -> tuple[list[tuple[int, int]], int, int]:
+        """Where each view goes in the offscreen buffer (left, bottom): side by side, in rows of the buffer's
+        width stacked upwards; and the width and height of the block used."""
+        places, left, bottom, row_height, total = [], 0, 0, 0, 0
+        for view in views:
+            if left + view.width_px > self.width and left > 0:  # a new row above
+                left, bottom, row_height = 0, bottom + row_height, 0
+            places.append((left, bottom))
+            left += view.width_px
+            row_height = max(row_height, view.height_px)
+            total = max(total, left)
+        tallest = bottom + row_height
+        if total > self.width or tallest > self.height:
+            size = f"{sum(v.width_px for v in views)}x{max(v.height_px for v in views)}"
+            raise SimulationError(f"mujoco backend: body-camera views of {size} px do not fit the "
+                                  f"{self.width}x{self.height} offscreen buffer")
+        return places, total, tallest
+
+    def _cull(self, model: mujoco.MjModel, data: mujoco.MjData, views: list[View]) -> np.ndarray:
+        """Move the world's geoms whose bounding sphere lies outside every view's frustum to
+        :data:`CULLED_GROUP` (the caller moves them back after the scene update); return their ids.
+
+        Exact: a culled geom could not have covered a pixel (its bounding sphere is beyond a side, the near
+        or the far plane of each view), so the images are the same, and the GL draws only what the eyes face.
+        """
+        cullable = self._cullable
+        if cullable.size == 0:
+            return cullable
+        centres, radii = data.geom_xpos[cullable], model.geom_rbound[cullable]
+        seen = np.zeros(cullable.size, dtype=bool)
+        for view in views:
+            local = (centres - view.eye_m) @ view.rotation  # view axes: x right, y up, z backwards
+            depth = -local[:, 2]
+            inside = (depth + radii > NEAR_M) & (depth - radii < FAR_M)
+            for axis, half_rad in ((0, view.fov_rad[0] / 2.0), (1, view.fov_rad[1] / 2.0)):
+                if half_rad < np.pi / 2.0:  # the signed distance to each side plane is at most the radius
+                    inside &= np.abs(local[:, axis]) * np.cos(half_rad) - depth * np.sin(half_rad) <= radii
+            seen |= inside
+        culled = cullable[~seen]
+        model.geom_group[culled] = CULLED_GROUP
+        return culled
 
     def _frame(self, view: View) -> None:
         """Both GL cameras at the view: pose, and a frustum with its own horizontal and vertical fields of view."""
@@ -590,9 +741,14 @@ class _FlatRenderer:
             camera.orthographic = 0
 
     def close(self) -> None:
-        """Free the GL context."""
-        if self._gl is not None:
+        """Free what this model put in the GL context and give the context back for the next backend
+        (:func:`gl_contexts.release`); in a forked child, touch nothing of the parent's."""
+        if self._gl is None:
+            return
+        if self.pid == os.getpid():
             self._gl.make_current()
             self._context.free()
-            self._gl.free()
-            self._gl = None
+        else:
+            gl_contexts.abandon(self._context)
+        gl_contexts.release(self._gl, self.width, self.height, self.pid)
+        self._gl = None

@@ -55,6 +55,10 @@ HFIELD_BASE_M = 0.1  # depth of the heightfield's solid base below z = 0
 CONE_EDGES = 32
 # Friction-to-normal impedance ratio in worlds with adhesion (see _options).
 STICKY_IMPRATIO = 10.0
+# The contact sensors of the contact geoms: their names' prefix, and MuJoCo's contact-sensor parameters for
+# "data=force, reduce=netforce, num=1" (the net force in world axes, 3 values).
+LOAD_SENSOR_PREFIX = "load/"
+CONTACT_NETFORCE_INTPRM = (2, 3, 1)
 # Contact bit masks: body geoms (1, 0) touch world geoms (1, 1) but never each other.
 BODY_CONTYPE, BODY_CONAFFINITY = 1, 0
 WORLD_CONTYPE, WORLD_CONAFFINITY = 1, 1
@@ -357,6 +361,12 @@ def _body(spec: mujoco.MjSpec, body: BodySpec) -> ModelNames:
         bodies[site.segment].add_site(name=site.name, pos=site.pos_m, size=(0.005, 0.005, 0.005), group=SITE_GROUP,
                                       rgba=rgba.get(site.kind, (0.8, 0.8, 0.8, 1.0)))
     contact_geoms = tuple(_contact_geoms(body, site, geoms) for site in body.sites_of_kind("contact"))
+    # A load sensor per contact geom: the net contact force on it, computed by MuJoCo in each step's
+    # acceleration stage (the contact_load sensor reads it without another constraint solve).
+    for geom_name in dict.fromkeys(name for names in contact_geoms for name in names):
+        sensor = spec.add_sensor(name=f"{LOAD_SENSOR_PREFIX}{geom_name}", type=mujoco.mjtSensor.mjSENS_CONTACT,
+                                 objtype=mujoco.mjtObj.mjOBJ_GEOM, objname=geom_name)
+        sensor.intprm = CONTACT_NETFORCE_INTPRM
     # Actuators in BodySpec.joints order, named after their joints (MuJoCo numbers them in this order).
     for joint in body.joints:
         actuator = spec.add_actuator(name=joint.name, target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT)

@@ -64,7 +64,7 @@ ANT_PREFIX = "ant{index}/"
 
 
 def prefixed_body(body: BodySpec, prefix: str) -> BodySpec:
-    """A copy of ``body`` with ``prefix`` before every segment, joint, site and camera name.
+    """A copy of ``body`` with ``prefix`` before every segment, joint, site, camera and compound-eye name.
 
     Geom names are built from segment names by the translation, so they carry the prefix too.
     """
@@ -73,7 +73,9 @@ def prefixed_body(body: BodySpec, prefix: str) -> BodySpec:
                      for s in body.segments)
     sites = tuple(replace(s, name=prefix + s.name, segment=prefix + s.segment) for s in body.sites)
     cameras = tuple(replace(c, name=prefix + c.name, segment=prefix + c.segment) for c in body.cameras)
-    return replace(body, name=prefix + body.name, segments=segments, sites=sites, cameras=cameras)
+    eyes = tuple(replace(e, name=prefix + e.name, segment=prefix + e.segment) for e in body.compound_eyes)
+    return replace(body, name=prefix + body.name, segments=segments, sites=sites, cameras=cameras,
+                   compound_eyes=eyes)
 
 
 def ant_collision_masks(index: int) -> tuple[int, int]:

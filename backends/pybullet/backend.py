@@ -22,8 +22,10 @@ Design
   steps of ``timestep / substeps`` per ``timestep`` as keep it below 0.7 (said in
   :attr:`warnings`). ``step(n)`` always advances ``n * timestep``; control, adhesion and applied
   forces act at every PyBullet step.
-- PyBullet clamps every velocity coordinate at 100 (m/s, rad/s). A state that is not finite, or a
-  velocity at that clamp, is taken as divergence and raises :class:`SimulationError`.
+- PyBullet clamps every velocity coordinate (m/s, rad/s) at the body's ``maxJointVelocity``, 100 by
+  default; here it is 500, above anything valid joint targets do (the head and the antennae it whips
+  pass 100 rad/s under bang-bang targets on MuJoCo too). A state that is not finite, or a velocity at
+  that clamp, is taken as divergence and raises :class:`SimulationError`.
 - Ground: ``flat`` is a plane; ``uneven`` a ``GEOM_HEIGHTFIELD`` from :meth:`Ground.heights_m`
   (PyBullet centres a heightfield at the midpoint of its lowest and highest sample, so the field is
   lifted by that midpoint to make its heights equal :meth:`Ground.height_at` at the samples; between
@@ -85,7 +87,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from neuronav.backends.pybullet.camera import render_flat, render_follow
+from neuronav.backends.pybullet.camera import ObjectCulling, render_flat, render_follow, render_spectral, spectral_lut
 from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
 from neuronav.backends.pybullet.scene import build_ground, build_object, build_vision_world, place_objects
 from neuronav.backends.pybullet.urdf import body_to_urdf, find_geom
@@ -99,7 +101,12 @@ from neuronav.spec.world import World
 GRAVITY_M_S2 = -9.81
 SAFE_MARGIN = 0.7  # keep explicit joint control this far inside its stability limit (1)
 MAX_SUBSTEPS = 64
-VELOCITY_CLAMP = 100.0  # PyBullet's btMultiBody clamps every velocity coordinate at this value
+# PyBullet's btMultiBody clamps every velocity coordinate (m/s, rad/s) at its maxJointVelocity, 100 unless
+# set. Valid in-bounds joint targets move the ant faster than that: under bang-bang targets held 80 ms the
+# head swings at about 67 rad/s and its 10 N·m antenna motors alone drive the antennae past 100 rad/s (105 on
+# MuJoCo, which has no clamp). The clamp is set above any such motion (10,000 control steps of such targets
+# never reach it), so that it only ever stops an explosion (tests/cross_backend/test_joint_actions_stay_finite.py).
+VELOCITY_CLAMP = 500.0
 DIVERGED_VELOCITY = 0.99 * VELOCITY_CLAMP
 TOUCH_DISTANCE_M = 1e-3  # a contact point this close (or penetrating) counts as touching, for adhesion
 # Adhesive pads in worlds with adhesion: PyBullet's contacts are otherwise rigid (under a millimetre of
@@ -317,10 +324,17 @@ class PybulletBackend(ArticulatedBackend):
         pos, rot = self._frames([link])[link]
         return pos + rot @ np.asarray(camera.pos_m, float), rot @ quat_to_matrix(camera.quat)
 
-    def _render_views(self, views: list[View], sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+    def _render_views(self, views: list[View], sees_body: bool,
+                      spectral: bool = False) -> list[tuple[np.ndarray, np.ndarray]]:
         cid = self._vision_client()
         self._show_body(sees_body)
-        return [render_flat(cid, view, self.world, self._vision_ground, self._vision_floor_z_m) for view in views]
+        self._vision_culling.yaw_rad = self._scene_yaw_rad
+        if spectral:
+            if self._vision_spectral is None:
+                self._vision_spectral = spectral_lut(self.world, self._vision_ground, self._vision_objects)
+            return [render_spectral(cid, view, self._vision_spectral, self._vision_culling) for view in views]
+        return [render_flat(cid, view, self.world, self._vision_ground, self._vision_floor_z_m, self._vision_culling)
+                for view in views]
 
     def _turn_scene(self, yaw_rad: float) -> None:
         place_objects(self._client, self._objects, self.world.objects, yaw_rad)
@@ -336,6 +350,8 @@ class PybulletBackend(ArticulatedBackend):
             self._vision, self._vision_body = cid, None
             self._vision_ground, self._vision_floor_z_m, self._vision_objects = build_vision_world(cid, self.world)
             place_objects(cid, self._vision_objects, self.world.objects, self._scene_yaw_rad)
+            self._vision_culling = ObjectCulling(cid, self._vision_objects, self.world.objects)
+            self._vision_spectral = None  # the compound eyes' colours by body (spectral_lut), made on first use
         return self._vision
 
     def _show_body(self, shown: bool) -> None:
@@ -438,6 +454,7 @@ class PybulletBackend(ArticulatedBackend):
             self._robot = pb.loadURDF(self._urdf_path, useFixedBase=self._urdf.fixed_base, flags=flags,
                                       physicsClientId=cid)
         self._index_links()
+        pb.changeDynamics(self._robot, -1, maxJointVelocity=VELOCITY_CLAMP, physicsClientId=cid)  # the whole body
         if self.world.adhesion_n > 0:
             pads = {link for site, (link, _) in zip(self._contact_sites, self._contact_links) if site.adhesive}
             for link in sorted(pads):

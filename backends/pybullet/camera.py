@@ -19,6 +19,11 @@ What TinyRenderer does and how it is made to follow :mod:`neuronav.senses.vision
 - **Sky.** The depth buffer is exactly 1 (the far plane) where nothing was drawn: that is the sky
   mask, which the caller paints (:func:`neuronav.senses.vision.compose_image`). With the near plane at
   5 mm, ground 500 m away still has a depth below 1 (1 - 5e-6; float32 resolves 6e-8 there).
+- **Compound eyes.** Their cube faces (:mod:`neuronav.senses.compound_eye_views`) are coloured from the
+  segmentation mask, body by body (:func:`spectral_lut`: each object's green and UV, the ground's for the rest).
+- **Culling.** TinyRenderer transforms every triangle of every shape, in view or not; it skips a shape
+  whose alpha is 0. :class:`ObjectCulling` gives alpha 0 to each world object whose bounding sphere lies
+  outside the view's frustum (exact: it could not cover a pixel) and its colour back when a view faces it.
 """
 
 from __future__ import annotations
@@ -29,11 +34,12 @@ from functools import lru_cache
 import numpy as np
 
 from neuronav.backends.pybullet.engine import pb
+from neuronav.backends.pybullet.scene import exact_rgba
 from neuronav.engine.articulated import FollowView
 from neuronav.senses.trail_floor import trail_floor
 from neuronav.senses.vision import FAR_M, NEAR_M, View, pixel_directions, sky_rgb, to_uint8
 from neuronav.spec.body import Camera
-from neuronav.spec.world import World
+from neuronav.spec.world import World, WorldObject
 
 # TinyRenderer takes seconds for an eye exactly on a heightfield grid line with an axis-aligned view
 # (e.g. a forward camera after the default reset); a sub-micrometre shift avoids that.
@@ -85,12 +91,70 @@ def _render(cid: int, eye_m, rotation, width_px: int, height_px: int, fov_rad, l
     return rgb, np.asarray(depth, np.float32).reshape(shape), (np.asarray(seg).reshape(shape) if segmentation else None)
 
 
+def bounding_radius_m(obj: WorldObject) -> float:
+    """The radius of the sphere about an object's position that holds all of it (its shape turns about it)."""
+    size = np.asarray(obj.size_m, float)
+    if obj.shape == "sphere":
+        return float(size[0])
+    return float(np.linalg.norm(size))  # box: the half extents; cylinder and cone: radius and half height
+
+
+def spheres_in_view(centres_m: np.ndarray, radii_m: np.ndarray, view: View) -> np.ndarray:
+    """Which spheres (n, 3) centres, (n,) radii reach into ``view``'s frustum (between ``NEAR_M`` and
+    ``FAR_M``, inside its four sides); a side at or beyond 90° from the axis is not tested."""
+    local = (np.asarray(centres_m, float) - view.eye_m) @ view.rotation  # view axes: x right, y up, z backwards
+    depth = -local[:, 2]
+    inside = (depth + radii_m > NEAR_M) & (depth - radii_m < FAR_M)
+    for axis, half_rad in ((0, view.fov_rad[0] / 2.0), (1, view.fov_rad[1] / 2.0)):
+        if half_rad < math.pi / 2.0:  # the signed distance to each side plane is at most the radius
+            inside &= np.abs(local[:, axis]) * math.cos(half_rad) - depth * math.sin(half_rad) <= radii_m
+    return inside
+
+
+class ObjectCulling:
+    """The world objects of a render-only client, each drawn only for the views its bounding sphere reaches.
+
+    Parameters
+    ----------
+    cid : int
+        The client.
+    handles : list of int
+        The objects' bodies, in ``objects``' order (each at its declared pose turned about the world z axis).
+    objects : sequence of WorldObject
+        The world's objects.
+    """
+
+    def __init__(self, cid: int, handles: list[int], objects) -> None:
+        self._cid, self._handles = cid, list(handles)
+        self._positions_m = np.array([obj.position_m for obj in objects], float).reshape(-1, 3)
+        self._radii_m = np.array([bounding_radius_m(obj) for obj in objects], float)
+        self._rgba = [exact_rgba(obj.rgba) for obj in objects]
+        self._hidden = np.zeros(len(self._handles), dtype=bool)
+        self.yaw_rad = 0.0  # the scene's turn about the world z axis
+
+    def only_for(self, view: View) -> None:
+        """Hide the objects ``view`` cannot show and show the others (only those that change are touched)."""
+        if not self._handles:
+            return
+        c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
+        x, y, z = self._positions_m.T
+        centres = np.column_stack([c * x - s * y, s * x + c * y, z])
+        shown = spheres_in_view(centres, self._radii_m, view)
+        for k in np.flatnonzero(shown == self._hidden):
+            rgba = self._rgba[k] if shown[k] else [*self._rgba[k][:3], 0.0]
+            pb.changeVisualShape(self._handles[k], -1, rgbaColor=rgba, physicsClientId=self._cid)
+        self._hidden = ~shown
+
+
 def render_flat(cid: int, view: View, world: World, ground_ids: list[int],
-                floor_z_m: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+                floor_z_m: float = 0.0, culling: ObjectCulling | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One body-camera view, flat-shaded: its uint8 image (h, w, 3) and sky mask (h, w) (see the module doc).
 
-    ``ground_ids``: the ground's bodies, the flat floor (top at ``floor_z_m``) last.
+    ``ground_ids``: the ground's bodies, the flat floor (top at ``floor_z_m``) last. ``culling``: the
+    world objects, drawn only where the view reaches them (:class:`ObjectCulling`).
     """
+    if culling is not None:
+        culling.only_for(view)
     # Ground pixels are painted here on a checker ground, or where the world draws odour trails.
     painted = world.appearance.ground_texture == "checker" or trail_floor(world) is not None
     rgb, depth, seg = _render(cid, view.eye_m, view.rotation, view.width_px, view.height_px, view.fov_rad,
@@ -103,6 +167,28 @@ def render_flat(cid: int, view: View, world: World, ground_ids: list[int],
             if mask.any():
                 rgb[mask] = ground_colour(view, world, mask, depth, plane_z_m)
     return rgb, sky
+
+
+def spectral_lut(world: World, ground_ids: list[int], object_ids: list[int]) -> np.ndarray:
+    """The compound eyes' colours (:func:`neuronav.senses.compound_eye.spectral_world`: (0, green, UV) as uint8)
+    by the vision client's body id: each object's ``spectral``, every other body (the ground, the wall) the
+    ground's ``ground_green_uv``. Indexed by a segmentation mask's values."""
+    ground = to_uint8((0.0, *world.appearance.ground_green_uv))
+    lut = np.tile(ground, (max([*ground_ids, *object_ids, 0]) + 2, 1))
+    for handle, obj in zip(object_ids, world.objects):
+        lut[handle] = to_uint8((0.0, *obj.spectral))
+    return lut
+
+
+def render_spectral(cid: int, view: View, lut: np.ndarray,
+                    culling: ObjectCulling | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """One view in the compound eyes' colouring: its uint8 image (h, w, 3) (G green, B UV) coloured from the
+    segmentation mask through ``lut`` (:func:`spectral_lut`), and the sky mask (h, w)."""
+    if culling is not None:
+        culling.only_for(view)
+    _, depth, seg = _render(cid, view.eye_m, view.rotation, view.width_px, view.height_px, view.fov_rad,
+                            FLAT_LIGHT, segmentation=True)
+    return lut[np.clip(seg, 0, len(lut) - 1)], depth >= 1.0
 
 
 def ground_colour(view: View, world: World, on_ground: np.ndarray, depth: np.ndarray,

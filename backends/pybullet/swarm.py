@@ -30,7 +30,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from neuronav.backends.pybullet.backend import DIVERGED_VELOCITY, GRAVITY_M_S2, PybulletBackend
+from neuronav.backends.pybullet.backend import DIVERGED_VELOCITY, GRAVITY_M_S2, VELOCITY_CLAMP, PybulletBackend
 from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
 from neuronav.backends.pybullet.scene import build_ground, build_object
 from neuronav.backends.pybullet.urdf import body_to_urdf
@@ -48,6 +48,8 @@ class _Ant:
         flags = pb.URDF_USE_INERTIA_FROM_FILE | pb.URDF_MAINTAIN_LINK_ORDER
         with EngineOutput(warnings):
             self.id = pb.loadURDF(urdf_path, useFixedBase=fixed_base, flags=flags, physicsClientId=cid)
+        # The single-ant backend's velocity clamp (see VELOCITY_CLAMP there), which its divergence check assumes.
+        pb.changeDynamics(self.id, -1, maxJointVelocity=VELOCITY_CLAMP, physicsClientId=cid)
         joint_index, movable = {}, []
         self.link_index = {}  # URDF link name -> PyBullet link index (the base: -1)
         for i in range(pb.getNumJoints(self.id, physicsClientId=cid)):

@@ -39,6 +39,7 @@ import numpy as np
 
 from neuronav.bodies.desert_ant import solved
 from neuronav.errors import ConfigError
+from neuronav.senses.compound_eye import cataglyphis_eye, check_scale
 from neuronav.spec.body import BodySpec, Camera, Geom, Joint, Segment, Site, axis_angle_quat, quat_to_matrix
 
 LEGS = ("FL", "ML", "HL", "FR", "MR", "HR")
@@ -254,7 +255,8 @@ def _from_i2bot(point) -> tuple[float, float, float]:
 def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: float | None = None,
                masses_kg: Mapping[str, float] | None = None, standing_height_m: float | None = None,
                antenna_yaw_rad: float | None = None, name: str = "desert_ant",
-               leg_segment_factors: Mapping[str, float] | None = None, ventral_eye: bool = False) -> BodySpec:
+               leg_segment_factors: Mapping[str, float] | None = None, ventral_eye: bool = False,
+               compound_eyes: bool = False, ommatidia_scale: float = 1.0) -> BodySpec:
     """The Cataglyphis fortis body at ×100 scale (0.1 m in simulation ≈ 1 mm on the ant).
 
     Parameters
@@ -288,6 +290,13 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
     ventral_eye : bool
         Add the ``ventral`` camera (32×32 planar, 90°, under the thorax looking straight down, image top
         forward): the optic-flow odometer's eye patch. Default False: the cameras below only.
+    compound_eyes : bool
+        Carry the two compound eyes ``compound_eye_L`` and ``compound_eye_R`` on the head (default False: a
+        body without them reads no eyes and loads no sampling matrices):
+        :func:`neuronav.senses.compound_eye.cataglyphis_eye`, at the binocular cameras' places, levelled
+        like the panorama (the eyes' equator on the horizon when the head is at rest on a level thorax).
+    ommatidia_scale : float
+        Multiplies each compound eye's ommatidia count (1287 at 1), in [0.01, 4].
 
     Returns
     -------
@@ -377,8 +386,10 @@ def desert_ant(scale: float = 1.0, leg_length_factors=None, antenna_length_m: fl
         "control": "torque = kp·(target − q) − kd·q̇, clipped to ±max_torque_nm; control step 8 ms",
     }
     cameras = _cameras(scale) + ((_ventral_camera(scale),) if ventral_eye else ())
+    ommatidia_scale = check_scale(ommatidia_scale)  # checked with or without the eyes
+    eyes = _compound_eyes(scale, ommatidia_scale) if compound_eyes else ()
     return BodySpec(name, tuple(segments), tuple(sites), cameras, spawn_height_m=float(depth + claw_r),
-                    notes=notes)
+                    notes=notes, compound_eyes=eyes)
 
 
 def _leg_geoms(leg: str, pair: dict, lengths, scale: float) -> dict[str, tuple[Geom, ...]]:
@@ -539,6 +550,54 @@ def _cameras(scale: float) -> tuple[Camera, ...]:
     cameras.append(Camera("panorama", "head", tuple(float(v) for v in position), quat, width_px=72, height_px=72,
                           fov_rad=(2.0 * math.pi, math.pi), projection="spherical", supersample=4))
     return tuple(cameras)
+
+
+def _compound_eyes(scale: float, ommatidia_scale: float) -> tuple:
+    """The two compound eyes on the head, where the binocular cameras sit, levelled as the panorama is."""
+    centre = np.array([HEAD["centre_from_neck"] * scale, 0.0, 0.0])
+    level = axis_angle_quat((0, 1, 0), -0.2)  # undoes the head's rest pitch
+    eyes = []
+    for side, sign in (("L", 1.0), ("R", -1.0)):
+        position = centre + np.array([0.0587, sign * 0.077, 0.0625]) * scale
+        eyes.append(cataglyphis_eye(f"compound_eye_{side}", "head", tuple(float(v) for v in position), side, level,
+                                    ommatidia_scale))
+    return tuple(eyes)
+
+
+def point_agent_compound_eyes(body: BodySpec) -> tuple:
+    """``body``'s compound eyes placed in a point agent's frame as they sit on the body at rest (as
+    ``neuronav.scenarios.visual_setup.point_agent_cameras`` places its cameras): the root ``spawn_height_m``
+    above the ground, level, every joint at rest; ``segment`` kept. For ``PointAgents(compound_eyes=...)``."""
+    from dataclasses import replace
+
+    from neuronav.bodies.gaits import segment_pose  # lazily: gaits imports this module
+
+    eyes = []
+    for eye in body.compound_eyes:
+        rotation, position = segment_pose(body, eye.segment, {})
+        where = position + rotation @ np.asarray(eye.pos_m, float) + np.array([0.0, 0.0, body.spawn_height_m])
+        frame = rotation @ quat_to_matrix(eye.quat)
+        eyes.append(replace(eye, pos_m=tuple(float(v) for v in where), quat=_matrix_quat(frame)))
+    return tuple(eyes)
+
+
+def _matrix_quat(rotation: np.ndarray) -> tuple[float, float, float, float]:
+    """A rotation matrix as a unit quaternion (w, x, y, z), w >= 0 (Shepperd's method, the largest pivot)."""
+    m = np.asarray(rotation, float)
+    trace = np.trace(m)
+    candidates = [trace, m[0, 0], m[1, 1], m[2, 2]]
+    k = int(np.argmax(candidates))
+    if k == 0:
+        w = math.sqrt(1.0 + trace) / 2.0
+        q = (w, (m[2, 1] - m[1, 2]) / (4 * w), (m[0, 2] - m[2, 0]) / (4 * w), (m[1, 0] - m[0, 1]) / (4 * w))
+    else:
+        i, j, n = k - 1, k % 3, (k + 1) % 3
+        r = math.sqrt(max(0.0, 1.0 + m[i, i] - m[j, j] - m[n, n])) / 2.0
+        v = [0.0, 0.0, 0.0]
+        v[i], v[j], v[n] = r, (m[j, i] + m[i, j]) / (4 * r), (m[n, i] + m[i, n]) / (4 * r)
+        q = ((m[n, j] - m[j, n]) / (4 * r), *v)
+    q = np.asarray(q) * (1.0 if q[0] >= 0 else -1.0)
+    return tuple(float(v) for v in q / np.linalg.norm(q))
 
 
 def _markers(scale: float) -> list[Site]:

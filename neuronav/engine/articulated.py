@@ -19,12 +19,17 @@ rules and checks, so that an engine module only translates them into its engine'
   the flat-shaded planar views an engine renders (a spherical camera from cube faces), with the
   World's sky painted where nothing was hit; ``set_scene_yaw`` turns the world's objects;
 - ``head_pos`` / ``head_quat``: the pose of the segment named ``head`` (:data:`HEAD_SEGMENT`), or the
-  root's for a body without one; ``cast_rays``' checks (the engine casts checked rays past the body).
+  root's for a body without one; ``cast_rays``' checks (the engine casts checked rays past the body);
+- compound eyes (``BodySpec.compound_eyes``): each a sensor (M, 2), green and UV in [0, 1], read from the
+  cube faces about the eye that its ommatidia reach (:mod:`neuronav.senses.compound_eye_views`), rendered
+  in the world's spectral colouring (``_render_views(..., spectral=True)``), every eye of one read in one
+  render call, then one sparse product per eye.
 
 Engine hooks (each backend implements them): ``_load_engine``, ``_reset_engine``, ``_raise_root``,
 ``_penetration_m``, ``_root_pose``, ``_segment_pose``, ``_root_velocity``, ``_joint_state``,
-``_joint_torque``, ``_contact_forces``, ``_site_positions``, ``_set_joint_targets``, ``_queue_force``,
-``_render_follow``, ``_camera_frame``, ``_render_views``, ``_turn_scene``, ``_cast_rays`` and ``_require``.
+``_joint_torque``, ``_contact_forces`` (and ``_contact_loads``), ``_site_positions``, ``_set_joint_targets``,
+``_queue_force``, ``_render_follow``, ``_camera_frame``, ``_render_views``, ``_turn_scene``, ``_cast_rays`` and
+``_require``.
 """
 
 from __future__ import annotations
@@ -45,6 +50,7 @@ from neuronav.engine.backend import (
 )
 from neuronav.errors import ConfigError, PortError
 from neuronav.senses.chemistry import Chemistry
+from neuronav.senses.compound_eye_views import eye_views
 from neuronav.senses.raycast import bounds_span_m, object_bounds
 from neuronav.senses.vision import View, camera_views, compose_image, cube_lookup, grey
 from neuronav.spec.body import BodySpec, Camera, Geom, quat_to_matrix
@@ -142,6 +148,8 @@ def articulated_capabilities(name: str, body: BodySpec | None = None, n_odours: 
             sensors.append(SensorSpec(sensor, shape, units))
     # Each body camera is a sensor too: its image in grey, float in [0, 1] (neuronav.senses.vision).
     sensors += [SensorSpec(camera.name, (camera.height_px, camera.width_px), "grey [0, 1]") for camera in body.cameras]
+    # Each compound eye too: green and UV per ommatidium (neuronav.senses.compound_eye_views).
+    sensors += [SensorSpec(eye.name, (eye.n_ommatidia, 2), "green, UV [0, 1]") for eye in body.compound_eyes]
     motors = (MotorSpec("joint_targets", (sizes["J"],), "rad"),) if sizes["J"] else ()
     if sizes["C"]:
         motors += (adhesion_port(sizes["C"]),)
@@ -322,6 +330,7 @@ class ArticulatedBackend(BackendBase):
         self._sites = {s.name: s for s in body.sites}
         self._segments = {s.name for s in body.segments}
         self._cameras = {c.name: c for c in body.cameras}
+        self._compound_eyes = {e.name: e for e in body.compound_eyes}
         self._scene_yaw_rad = 0.0
         self._ground_heights_m = None
         self._ray_bounds = None
@@ -370,8 +379,28 @@ class ArticulatedBackend(BackendBase):
     def read(self, names: Iterable[str]) -> dict[str, np.ndarray]:
         """Sensor values, each with a leading batch dimension of 1; only the names asked for are computed."""
         self._require()
-        cache: dict[str, object] = {}
-        return {name: np.array(self._sensor(name, cache), dtype=float)[None] for name in self._check_read(names)}
+        names = list(self._check_read(names))
+        # The compound eyes asked for are rendered together, at the first of them.
+        cache: dict[str, object] = {"compound_eyes": [n for n in names if n in self._compound_eyes]}
+        return {name: np.array(self._sensor(name, cache), dtype=float)[None] for name in names}
+
+    def sampler(self, names: Iterable[str]):
+        """A reader of ``names`` for every control step: checked once here, then each call returns their
+        values (without the batch dimension) flattened and concatenated into one float array (J + C values
+        for ``("joint_pos", "contact_load")``), read as :meth:`read` reads them. For hooks that sample the
+        same sensors at every step (an odometer, a logger), where ``read``'s checks and dict cost more
+        than the values. The function belongs to this loaded model: make a new one after ``load``.
+        """
+        self._require()
+        names = tuple(self._check_read(names))
+        return self._sampler(names)
+
+    def _sampler(self, names: tuple[str, ...]):
+        """The engine's sampling function of :meth:`sampler` (an engine may give a faster one)."""
+        def sample() -> np.ndarray:
+            cache: dict[str, object] = {}
+            return np.concatenate([np.ravel(self._sensor(name, cache)) for name in names]).astype(float, copy=False)
+        return sample
 
     def _sensor(self, name: str, cache: dict) -> np.ndarray:
         """One sensor, from the engine's reports (``cache`` holds the root's state within one read)."""
@@ -401,6 +430,8 @@ class ArticulatedBackend(BackendBase):
             return self._joint_torque()
         if name == "contact_force":
             return self._contact_forces()
+        if name == "contact_load":
+            return self._contact_loads()
         if name in ("odour_sites", "wind_sites"):
             return self._site_positions(name.split("_")[0])
         if name == "odour":
@@ -409,6 +440,10 @@ class ArticulatedBackend(BackendBase):
             return self._wind_at(self._site_positions("wind"))
         if name in self._cameras:
             return grey(self._render_camera(name))
+        if name in self._compound_eyes:
+            if name not in cache.get("compound", {}):
+                cache["compound"] = self._read_compound_eyes(cache.get("compound_eyes") or [name])
+            return cache["compound"][name]
         raise PortError(f"{self.engine} backend: sensor {name!r} is not implemented")  # unreachable after _check_read
 
     def write(self, commands: dict[str, np.ndarray]) -> None:
@@ -531,6 +566,24 @@ class ArticulatedBackend(BackendBase):
         views = camera_views(spec, eye, rotation, lookup)
         return compose_image(spec, rotation, self._render_views(views, spec.sees_body), self.world.appearance, lookup)
 
+    def _read_compound_eyes(self, names: list[str]) -> dict[str, np.ndarray]:
+        """Compound eyes ``names`` (M, 2) each: their cube faces rendered in one call in the spectral colouring,
+        then each eye's sampling matrix (:mod:`neuronav.senses.compound_eye_views`)."""
+        readers, views = [], []
+        for name in names:
+            eye = self._compound_eyes[name]
+            reader = eye_views(eye)
+            pos, _, rotation = self._segment_pose(eye.segment)
+            frame = rotation @ quat_to_matrix(eye.quat)
+            views += reader.views(pos + rotation @ np.asarray(eye.pos_m, float), frame)
+            readers.append(reader)
+        rendered = self._render_views(views, False, spectral=True)
+        sky, out, start = self.world.appearance.sky_green_uv, {}, 0
+        for name, reader in zip(names, readers):
+            out[name] = reader.values(rendered[start:start + len(reader.faces)], sky)
+            start += len(reader.faces)
+        return out
+
     def follow_view(self) -> FollowView:
         """Where the follow camera is now."""
         self._require()
@@ -579,6 +632,12 @@ class ArticulatedBackend(BackendBase):
     def _contact_forces(self) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
+    def _contact_loads(self) -> np.ndarray:
+        """(C,) N: the magnitude of each contact site's total force in the last physics step. This default
+        is the norm of :meth:`_contact_forces`, right for an engine whose contact forces are the last step's
+        (PyBullet); an engine that solves them for the current state on demand (MuJoCo) overrides it."""
+        return np.linalg.norm(self._contact_forces(), axis=1)
+
     def _site_positions(self, kind: str) -> np.ndarray:  # pragma: no cover
         raise NotImplementedError
 
@@ -604,10 +663,12 @@ class ArticulatedBackend(BackendBase):
         raise NotImplementedError
 
     def _render_views(self, views: list[View],  # pragma: no cover
-                      sees_body: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+                      sees_body: bool, spectral: bool = False) -> list[tuple[np.ndarray, np.ndarray]]:
         """Each view rendered flat-shaded (every surface in its rgba, no lights): a uint8 image (h, w, 3)
         and a bool mask (h, w) of the pixels where nothing was hit (the caller paints the sky there);
-        the body is left out unless ``sees_body``."""
+        the body is left out unless ``sees_body``. With ``spectral`` the world is drawn as
+        :func:`neuronav.senses.compound_eye.spectral_world` draws it (every colour (0, green, UV): the ground,
+        its wall and any floor image in ``ground_green_uv``, each object in its ``spectral``)."""
         raise NotImplementedError
 
     def _turn_scene(self, yaw_rad: float) -> None:  # pragma: no cover

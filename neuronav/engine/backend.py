@@ -14,8 +14,12 @@ odour channels):
 Each body camera (``BodySpec.cameras``; on the kinematic backend ``PointAgents.cameras``) is a
 sensor too, named after the camera: its image in grey, shape (H, W), float in [0, 1], rendered only
 when read, by the rules of :mod:`neuronav.senses.vision`; ``render(camera)`` gives the colour image
-(H, W, 3) uint8. Odour and wind come from the world's :class:`~neuronav.senses.chemistry.Chemistry`
-(``backend.chemistry``), built at ``load``, seeded at ``reset`` (the plume), advanced to the
+(H, W, 3) uint8. A compound eye (``BodySpec.compound_eyes``, :mod:`neuronav.senses.compound_eye`; on the
+kinematic backend ``PointAgents.compound_eyes``, read by rays; on MuJoCo, dm_control and PyBullet from rendered
+cube faces, :mod:`neuronav.senses.compound_eye_views`) is a sensor named after it: (M, 2), each
+ommatidium's green and UV in [0, 1]. Odour and wind come from the world's
+:class:`~neuronav.senses.chemistry.Chemistry` (``backend.chemistry``), built at ``load``, seeded at
+``reset`` (the plume), advanced to the
 backend's time when read. Every backend can turn the world's objects about the vertical axis:
 ``set_scene_yaw(yaw_rad)`` (``scene_yaw_rad`` reads it back).
 
@@ -61,6 +65,8 @@ ARTICULATED_SENSORS: tuple[tuple[str, tuple, str, str], ...] = (
     ("joint_vel", ("J",), "rad/s", "joint velocities"),
     ("joint_torque", ("J",), "N*m", "control torque of the last physics step"),
     ("contact_force", ("C", 3), "N", "total force on each contact site's geom, world frame"),
+    ("contact_load", ("C",), "N", "magnitude of the total force on each contact site's geom in the last physics step "
+     "(a load sensor: no extra constraint solve)"),
     ("body_pos", (3,), "m", "root frame origin"),
     ("body_quat", (4,), "", "root rotation (w, x, y, z), w >= 0"),
     ("body_linvel", (3,), "m/s", "root origin velocity, world axes"),
@@ -260,7 +266,11 @@ class BackendBase:
 
     def _check_read(self, names: Iterable[str]) -> list[str]:
         names = list(names)
-        known = {s.name for s in self.capabilities.sensors}
+        capabilities = self.capabilities
+        if getattr(self, "_sensor_names_of", None) is not capabilities:  # built once per capabilities
+            self._sensor_names = frozenset(s.name for s in capabilities.sensors)
+            self._sensor_names_of = capabilities
+        known = self._sensor_names
         for name in names:
             if name not in known:
                 raise PortError(

@@ -24,6 +24,8 @@ GEOM_SHAPES = ("capsule", "sphere", "box", "cylinder")
 JOINT_KINDS = ("hinge", "free", "fixed")
 SITE_KINDS = ("contact", "odour", "wind", "marker")
 PROJECTIONS = ("planar", "spherical")
+# Spectral receptor types of a compound eye's ommatidia (neuronav.senses.compound_eye).
+OMMATIDIUM_CHANNELS = ("green", "uv")
 IDENTITY_QUAT = (1.0, 0.0, 0.0, 0.0)
 
 
@@ -177,6 +179,78 @@ class Camera:
     supersample: int = 1
 
 
+@dataclass(frozen=True, eq=False)
+class CompoundEye:
+    """A compound-eye mount: where the eye sits, and its ommatidia as data.
+
+    The eye's frame is placed at ``pos_m`` / ``quat`` in its segment's frame and follows the head
+    convention of :mod:`neuronav.senses.dorsal_rim`: +x forward, +y left, +z up (not a camera's -z).
+    Each ommatidium has a unit viewing direction in that frame (``directions``, (M, 3)), the full width
+    at half maximum of its Gaussian angular sensitivity (``acceptance_rad``, (M,)), and reads every one
+    of ``channels`` (spectral receptor types: ``green``, ``uv``). Generated from the literature by
+    :func:`neuronav.senses.compound_eye.cataglyphis_eye`; read by :mod:`neuronav.senses.compound_eye`.
+    Two eyes are equal when every field is (arrays compared by value).
+    """
+
+    name: str
+    segment: str
+    pos_m: tuple[float, float, float]
+    quat: tuple[float, float, float, float] = IDENTITY_QUAT
+    directions: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    acceptance_rad: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    channels: tuple[str, ...] = OMMATIDIUM_CHANNELS
+
+    def __post_init__(self) -> None:
+        where = f"compound eye {self.name!r}"
+        if not isinstance(self.name, str) or not self.name:
+            raise ConfigError(f"compound eye name must be a non-empty string, got {self.name!r}")
+        try:
+            directions = np.array(self.directions, dtype=float)
+            acceptance = np.array(self.acceptance_rad, dtype=float).reshape(-1)
+            pos, quat = np.array(self.pos_m, dtype=float), np.array(self.quat, dtype=float)
+        except (TypeError, ValueError):
+            raise ConfigError(f"{where}: pos_m, quat, directions and acceptance_rad must be numbers") from None
+        if directions.ndim != 2 or directions.shape[1] != 3 or directions.shape[0] < 1:
+            raise ConfigError(f"{where}: directions must have shape (M, 3) with M >= 1, got {directions.shape}")
+        if not (np.isfinite(directions).all() and np.allclose(np.linalg.norm(directions, axis=1), 1.0, atol=1e-6)):
+            raise ConfigError(f"{where}: directions must be finite unit vectors")
+        if acceptance.shape != (directions.shape[0],) or not (
+                np.isfinite(acceptance).all() and acceptance.min() > 0 and acceptance.max() <= np.pi / 4):
+            raise ConfigError(f"{where}: acceptance_rad must be {directions.shape[0]} angles in (0, pi/4] "
+                              f"(one per ommatidium), got shape {acceptance.shape}")
+        if pos.shape != (3,) or not np.isfinite(pos).all():
+            raise ConfigError(f"{where}: pos_m must be 3 finite numbers, got {self.pos_m!r}")
+        _unit_quat(where, tuple(quat))
+        channels = tuple(self.channels) if isinstance(self.channels, list | tuple) else ()
+        if not channels or len(set(channels)) != len(channels) or not set(channels) <= set(OMMATIDIUM_CHANNELS):
+            raise ConfigError(f"{where}: channels must be distinct names from {OMMATIDIUM_CHANNELS}, "
+                              f"got {self.channels!r}")
+        directions.setflags(write=False)
+        acceptance.setflags(write=False)
+        object.__setattr__(self, "directions", directions)
+        object.__setattr__(self, "acceptance_rad", acceptance)
+        object.__setattr__(self, "pos_m", tuple(float(v) for v in pos))
+        object.__setattr__(self, "quat", tuple(float(v) for v in quat))
+        object.__setattr__(self, "channels", channels)
+
+    @property
+    def n_ommatidia(self) -> int:
+        """M, the number of ommatidia."""
+        return int(self.directions.shape[0])
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, CompoundEye):
+            return NotImplemented
+        return ((self.name, self.segment, self.pos_m, self.quat, self.channels)
+                == (other.name, other.segment, other.pos_m, other.quat, other.channels)
+                and np.array_equal(self.directions, other.directions)
+                and np.array_equal(self.acceptance_rad, other.acceptance_rad))
+
+    def __hash__(self) -> int:
+        return hash((self.name, self.segment, self.pos_m, self.quat, self.channels, self.directions.tobytes(),
+                     self.acceptance_rad.tobytes()))
+
+
 @dataclass(frozen=True)
 class BodySpec:
     """A whole articulated body. ``segments[0]`` is the root and has no parent."""
@@ -187,6 +261,7 @@ class BodySpec:
     cameras: tuple[Camera, ...] = ()
     spawn_height_m: float = 0.5
     notes: dict = field(default_factory=dict)
+    compound_eyes: tuple[CompoundEye, ...] = ()
 
     def __post_init__(self) -> None:
         self.validate()
@@ -242,6 +317,17 @@ class BodySpec:
             if isinstance(camera.supersample, bool) or camera.supersample not in range(1, 9):
                 raise ConfigError(f"body {self.name!r}, camera {camera.name!r}: supersample must be an int in "
                                   f"1..8 (rays per pixel side), got {camera.supersample!r}")
+        eye_names = {camera.name for camera in self.cameras}
+        for eye in self.compound_eyes:
+            if not isinstance(eye, CompoundEye):
+                raise ConfigError(f"body {self.name!r}: compound_eyes must be CompoundEye instances, "
+                                  f"got {type(eye).__name__}")
+            if eye.segment not in names:
+                raise ConfigError(f"body {self.name!r}, compound eye {eye.name!r}: unknown segment {eye.segment!r}")
+            if eye.name in eye_names:
+                raise ConfigError(f"body {self.name!r}: compound eye name {eye.name!r} is used twice (cameras and "
+                                  f"compound eyes share one name space)")
+            eye_names.add(eye.name)
 
     # -- queries ----------------------------------------------------------------------------------
     @property

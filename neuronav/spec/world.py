@@ -14,6 +14,7 @@ from functools import cached_property
 import numpy as np
 
 from neuronav.errors import ConfigError, real_or_nan
+from neuronav.spec.body import CompoundEye
 from neuronav.spec.odour_scene import OdourScene
 
 GROUND_KINDS = ("flat", "uneven", "wall")
@@ -29,6 +30,16 @@ MAX_POINT_AGENTS = 10 ** 7
 # The most heightfield samples per side (1025² float64: 8 MB; 2 cm apart on a 20 m field). With
 # feature_m <= size_m / 4 the smoothing kernel spans at most 2 · 4 · 256 cells: a few seconds at most.
 MAX_GROUND_CELLS = 1025
+# What the compound eyes' green and UV receptors see (neuronav.senses.compound_eye): each surface's value
+# per channel (green, UV) in [0, 1], 1 being a white Lambertian surface under the full daylight (sun and
+# sky) of that channel, so a surface's value is its reflectance and the sky's the fraction of the
+# daylight that comes from the sky. Defaults (docs/parameters.md, section 12; *ours* from the sources there):
+# the sky 0.15 in green and 0.5 in UV (Rayleigh scattering makes the UV daylight about half skylight, the
+# green mostly direct sun), desert sand 0.27 / 0.10, vegetation (the objects' default) 0.12 / 0.04: in UV
+# the sky outshines every surface, in green the sand outshines the sky (Möller 2002's UV-green contrast).
+SKY_GREEN_UV = (0.15, 0.50)
+GROUND_GREEN_UV = (0.27, 0.10)
+OBJECT_GREEN_UV = (0.12, 0.04)
 
 
 
@@ -140,18 +151,26 @@ class WorldObject:
     """A static object: a primitive ``shape`` of ``size_m`` at ``position_m`` with an RGBA colour.
 
     Sizes as for body geoms: box half-extents (3); cylinder and cone (radius, half_height); sphere
-    (radius,). Cylinders and cones stand upright (along z). A :class:`World` checks the rest
-    (:func:`check_objects`), so that every backend refuses the same objects.
+    (radius,). Cylinders and cones stand upright (along z). ``green_uv``: what the compound eyes' green
+    and UV receptors see of it (2 numbers in [0, 1], see :data:`SKY_GREEN_UV`; None: vegetation's).
+    A :class:`World` checks the rest (:func:`check_objects`), so that every backend refuses the same objects.
     """
 
     shape: str
     position_m: tuple[float, float, float]
     size_m: tuple[float, ...]
     rgba: tuple[float, float, float, float] = (0.2, 0.2, 0.2, 1.0)
+    green_uv: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         if self.shape not in OBJECT_SHAPES:
             raise ConfigError(f"object shape {self.shape!r} is unknown; allowed: {', '.join(OBJECT_SHAPES)}")
+
+    @property
+    def spectral(self) -> tuple[float, float]:
+        """What the compound eyes see of it, (green, UV) in [0, 1]: ``green_uv``, or vegetation's
+        :data:`OBJECT_GREEN_UV` when it is None."""
+        return OBJECT_GREEN_UV if self.green_uv is None else tuple(float(v) for v in self.green_uv)
 
 
 def check_objects(objects) -> None:
@@ -173,6 +192,11 @@ def check_objects(objects) -> None:
         rgba = _numbers(obj.rgba)
         if rgba.size != 4 or not (np.isfinite(rgba).all() and rgba.min() >= 0 and rgba.max() <= 1):
             raise ConfigError(f"world object {index} ({obj.shape}): rgba needs 4 numbers in [0, 1], got {obj.rgba!r}")
+        if obj.green_uv is not None:
+            spectral = _numbers(obj.green_uv)
+            if spectral.size != 2 or not (np.isfinite(spectral).all() and spectral.min() >= 0 and spectral.max() <= 1):
+                raise ConfigError(f"world object {index} ({obj.shape}): green_uv needs 2 numbers in [0, 1] (green, UV) "
+                                  f"or None, got {obj.green_uv!r}")
 
 
 def _numbers(values) -> np.ndarray:
@@ -204,6 +228,8 @@ class Appearance:
     ``checker_rgb`` in squares of ``checker_m`` (the videos' default: the motion shows against it),
     ``plain`` draws it in one colour (what visual experiments use: a uniform ground shows no
     structure a compass could lock onto).
+    ``sky_green_uv``, ``ground_green_uv``: what the compound eyes' green and UV receptors see of the sky
+    and of the ground (plain: the checker is not drawn for them), see :data:`SKY_GREEN_UV`.
     """
 
     sky_rgb: tuple[float, float, float] = (0.62, 0.78, 0.95)
@@ -212,10 +238,18 @@ class Appearance:
     ground_texture: str = "checker"
     checker_rgb: tuple[float, float, float] = (0.66, 0.57, 0.40)
     checker_m: float = 0.5
+    sky_green_uv: tuple[float, float] = SKY_GREEN_UV
+    ground_green_uv: tuple[float, float] = GROUND_GREEN_UV
 
     def __post_init__(self) -> None:
         for label in ("sky_rgb", "horizon_rgb", "ground_rgb", "checker_rgb"):
             _check_rgb(label, getattr(self, label))
+        for label in ("sky_green_uv", "ground_green_uv"):
+            values = _numbers(getattr(self, label))
+            if values.size != 2 or not (np.isfinite(values).all() and values.min() >= 0 and values.max() <= 1):
+                raise ConfigError(f"appearance {label} must be 2 numbers in [0, 1] (green, UV), "
+                                  f"got {getattr(self, label)!r}")
+            object.__setattr__(self, label, tuple(float(v) for v in values))
         if self.ground_texture not in GROUND_TEXTURES:
             raise ConfigError(f"appearance ground_texture {self.ground_texture!r} is unknown; allowed: "
                               f"{', '.join(GROUND_TEXTURES)}")
@@ -326,6 +360,10 @@ class PointAgents:
     head_height_m : float
         Height of the agents' head above the ground (finite, >= 0, at most :data:`MAX_LENGTH_M`): the
         kinematic backend's ``head_pos`` is (x, y, head_height_m), e.g. where a sky compass looks from.
+    compound_eyes : tuple of CompoundEye
+        Compound eyes (:class:`neuronav.spec.body.CompoundEye`) carried by every agent, placed in the
+        agent's frame as cameras are (``segment`` ignored); the kinematic backend reads each as a sensor
+        of its name, (M, 2) green and UV (:mod:`neuronav.senses.compound_eye`).
     """
 
     count: int = 1
@@ -335,6 +373,7 @@ class PointAgents:
     cameras: tuple = ()
     antennae: tuple = ()
     head_height_m: float = 0.5
+    compound_eyes: tuple = ()
 
     def __post_init__(self) -> None:
         if isinstance(self.count, bool) or not isinstance(self.count, int) or not 1 <= self.count <= MAX_POINT_AGENTS:
@@ -356,3 +395,10 @@ class PointAgents:
         if len(set(names)) != len(names):
             raise ConfigError(f"PointAgents antennae: a name is used twice in {names}")
         object.__setattr__(self, "antennae", antennae)
+        eyes = tuple(self.compound_eyes) if isinstance(self.compound_eyes, list | tuple) else None
+        if eyes is None or not all(isinstance(e, CompoundEye) for e in eyes):
+            raise ConfigError("PointAgents compound_eyes must be a tuple of neuronav.spec.body.CompoundEye")
+        eye_names = [e.name for e in eyes]
+        if len(set(eye_names)) != len(eye_names):
+            raise ConfigError(f"PointAgents compound_eyes: a name is used twice in {eye_names}")
+        object.__setattr__(self, "compound_eyes", eyes)

@@ -3,9 +3,9 @@
 An ant with a full home vector is released where its views point home and its home vector points
 ``conflict`` to one side; its initial heading shows how it weights the two cues. Per trial (seed s):
 
-- The world: a forest of ``trees`` 8–40 m around the nest (``forest_seed``: the same for every trial),
-  and ``snapshots`` panoramas stored facing the nest on a circle of ``snapshot_radius_m``, rendered by
-  the kinematic ray caster with the ant's panoramic camera.
+- The world: a forest of ``trees`` 8–40 m around the nest (``forest_seed``: the same for every trial), and
+  ``snapshots`` panoramas ray cast facing the nest on a circle of ``snapshot_radius_m`` (the panoramic camera, or
+  ``eyes=compound``: one ``eye_channel`` of the compound eyes, :mod:`neuronav.scenarios.route_following.compound_view`).
 - The home vector: the CX integrates a straight outbound walk of ``pi_distance_m`` whose home vector
   points ``conflict`` to a random side of the nest direction seen from the release point; the ant is
   then released ``release_distance_m`` from the nest at a random bearing, facing a random heading.
@@ -13,8 +13,8 @@ An ant with a full home vector is released where its views point home and its ho
   visual cues into the ring attractor by reliability and steers toward its bump through CPU1 (``cues``
   may leave one out). The trial ends at the nest (``nest_radius_m``) or at ``timeout_s``.
 
-On the kinematic backend all trials run as one batch of agents (panoramas at ``kinematic_supersample``
-rays per pixel side); on MuJoCo and PyBullet one ant per trial.
+On kinematic all trials run as one batch of agents (panoramas at ``kinematic_supersample`` rays per pixel side),
+on MuJoCo and PyBullet one ant per trial.
 
 Metrics per trial (degrees, signed, relative to the nest direction from the release point, positive
 toward the PI cue's side): ``initial_heading_deg`` (bearing of where the path first reaches
@@ -43,6 +43,7 @@ from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.aggregation import finished_trials, per_condition, success_rate
 from neuronav.scenarios.cue_integration.brain import CueBrain, weighted_direction
+from neuronav.scenarios.route_following.compound_view import EYE_CHANNELS, EYE_SENSORS, CompoundPanorama, ant_eyes
 from neuronav.scenarios.trial_loop import run_loop
 from neuronav.scenarios.variability import variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
@@ -50,6 +51,7 @@ from neuronav.scenarios.worlds.scenes import forest, vision_appearance
 from neuronav.spec.world import Ground, PointAgents, World
 
 CUE_MODES = ("both", "pi", "vision")
+EYES = ("camera", "compound")
 OUTBOUND_STEP_M = 0.29
 FOREST_RADII_M = (8.0, 40.0)
 
@@ -84,13 +86,18 @@ class CueIntegrationConfig:
     timestep_s: float = settings.timestep_field()
     kinematic_supersample: int = field(1, "kinematic batch: rays per pixel side of the panorama (the ant's "
                                        "camera: 4)", min=1, max=4)
+    eyes: str = field("camera", "what the visual cue sees: camera (the ant's panoramic camera, grey) or compound (its "
+                      "two compound eyes' ommatidia, one channel: eye_channel)", choices=EYES)
+    eye_channel: str = field("uv", "eyes=compound: the ommatidia's channel the views are made of: green, uv, or "
+                             "uv_green (the UV-green contrast (UV - G) / (UV + G))", choices=EYE_CHANNELS)
     variability: str = variability_field()
     heading_noise_deg: float = field(2.0, "variability: Gaussian noise on every heading the brain reads (the "
                                      "compass), outbound and homing (standard deviation, deg)", min=0.0, max=90.0)
     odometry_noise: float = field(0.1, "variability: each gait cycle's displacement the CX integrates scaled by "
                                   "1 + this standard deviation times a Gaussian draw (relative)", min=0.0, max=1.0)
     eye_noise: float = field(0.02, "variability: Gaussian noise on every pixel of the panorama the brain reads "
-                             "(standard deviation, grey levels 0-1)", min=0.0, max=1.0)
+                             "(standard deviation, grey levels 0-1; with eyes=compound in the channel's units)",
+                             min=0.0, max=1.0)
     turn_noise: float = field(0.03, "variability: Gaussian noise on each gait cycle's turn θ (standard deviation; "
                               "θ = ±1 turns on the spot)", min=0.0, max=1.0)
     stride_noise_deg: float = field(1.0, "variability: Gaussian noise on each gait cycle's stride (standard "
@@ -169,17 +176,39 @@ def panorama_camera(supersample: int | None = None):
     return camera if supersample is None else replace(camera, supersample=int(supersample))
 
 
+class CueEyes:
+    """The eyes the visual cue reads: the panoramic camera, or (``eyes=compound``) the two compound eyes, one
+    channel laid out on the panorama's grid
+    (:class:`~neuronav.scenarios.route_following.compound_view.CompoundPanorama`)."""
+
+    def __init__(self, config: CueIntegrationConfig) -> None:
+        self.layout = CompoundPanorama(*ant_eyes(), config.eye_channel) if config.eyes == "compound" else None
+        self.sensors = EYE_SENSORS if self.layout else ("panorama",)
+
+    def point_agents(self, count: int, supersample: int | None = None) -> PointAgents:
+        """``count`` unicycle agents carrying these eyes (the camera at ``supersample``, or its own)."""
+        if self.layout:
+            return PointAgents(count=count, mode="unicycle", compound_eyes=ant_eyes()[0])
+        return PointAgents(count=count, mode="unicycle", cameras=(panorama_camera(supersample),))
+
+    def read(self, backend, also=("heading", "position")) -> tuple[dict, np.ndarray]:
+        """(the sensors ``also`` read with the eyes, the panoramas (N, H, W))."""
+        sensed = backend.read((*also, *self.sensors))
+        return sensed, (self.layout(sensed) if self.layout else sensed["panorama"])
+
+
 def take_snapshots(config: CueIntegrationConfig, world: World) -> np.ndarray:
     """Skyline views (K, R, W) from ``snapshots`` points on the circle, each facing the nest."""
     from neuronav.brains.visual_homing import skyline_view
 
     angles = 2.0 * np.pi * np.arange(config.snapshots) / config.snapshots
     positions = config.snapshot_radius_m * np.stack([np.sin(angles), np.cos(angles)], axis=1)
+    eyes = CueEyes(config)
     engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
     with engine:
-        engine.load(world, [PointAgents(count=config.snapshots, mode="unicycle", cameras=(panorama_camera(),))])
+        engine.load(world, [eyes.point_agents(config.snapshots)])
         engine.reset(seed=0, heading_rad=angles + np.pi, position_m=positions)
-        return skyline_view(engine.read(("panorama",))["panorama"], config.band_deg)
+        return skyline_view(eyes.read(engine, also=())[1], config.band_deg)
 
 
 def charge_home_vector(brain: CueBrain, pi_rad: np.ndarray, distance_m: float) -> None:
@@ -214,7 +243,8 @@ def run_kinematic(config: CueIntegrationConfig, trials: int, seed: int) -> tuple
     brain = start_brain(config, take_snapshots(config, world), seeds, setups)
     releases = np.array([s["release_m"] for s in setups])
     engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
-    body = PointAgents(count=trials, mode="unicycle", cameras=(panorama_camera(config.kinematic_supersample),))
+    eyes = CueEyes(config)
+    body = eyes.point_agents(trials, config.kinematic_supersample)
     controls = integer_ratio(CYCLE_S, CONTROL_S, "gait cycle / control step")
     done_s = np.full(trials, np.nan)
     with engine:
@@ -222,8 +252,8 @@ def run_kinematic(config: CueIntegrationConfig, trials: int, seed: int) -> tuple
         engine.reset(seed=seed, heading_rad=np.array([s["heading_rad"] for s in setups]), position_m=releases)
         positions = [engine.read(("position",))["position"]]
         while engine.time < config.timeout_s - 1e-9 and np.isnan(done_s).any():
-            sensed = engine.read(("heading", "position", "panorama"))
-            turn, stride = brain(engine.time, sensed["heading"][:, 0], sensed["position"], sensed["panorama"])
+            sensed, panorama = eyes.read(engine)
+            turn, stride = brain(engine.time, sensed["heading"][:, 0], sensed["position"], panorama)
             arrived = np.isfinite(done_s)
             turn[arrived], stride[arrived] = 0.0, 0.0
             engine.write({"turn": turn[:, None], "stride": stride[:, None]})
@@ -255,15 +285,17 @@ def physics_trial(config: CueIntegrationConfig, backend_name: str, snapshots: np
     setup = trial_setup(config, seed)
     release = setup["release_m"]
     world = translated(cue_world(config), -release)
-    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s)
+    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s,
+                                                 **({"compound_eyes": True} if config.eyes == "compound" else {}))
     brain = start_brain(config, snapshots, [seed], [setup])
+    eyes = CueEyes(config)
     positions: list[np.ndarray] = []
 
     def steer(loop) -> tuple[float, float]:
-        sensed = loop.backend.read(("heading", "position", "panorama"))
+        sensed, panorama = eyes.read(loop.backend)
         position = sensed["position"] + release
         positions.append(position[0])
-        turn, stride = brain(loop.time_s, sensed["heading"][:, 0], position, sensed["panorama"])
+        turn, stride = brain(loop.time_s, sensed["heading"][:, 0], position, panorama)
         return float(turn[0]), float(stride[0])
 
     def at_nest(loop) -> bool:

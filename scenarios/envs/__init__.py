@@ -21,6 +21,15 @@ GYM_IDS = {
     "neuronav/AntBeacon-v0": "beacon",
     "neuronav/AntPlume-v0": "plume",
 }
+# The spec's max_episode_steps: the longest episode an id's default settings allow (the task's time limit in
+# joints mode's 8 ms steps; in locomotion mode, 0.64 s steps, the env truncates itself at task.step_limit(0.64),
+# env.unwrapped.max_steps). A longer time limit in joints mode needs gymnasium.make(..., max_episode_steps=-1).
+MAX_EPISODE_STEPS = {"neuronav/AntHoming-v0": 11250, "neuronav/AntBeacon-v0": 15000, "neuronav/AntPlume-v0": 7500}
+# The ids with a native kinematic vector environment (neuronav.scenarios.envs.vector_env): gymnasium.make_vec
+# uses it by default (vectorization_mode="vector_entry_point"); other backends need vectorization_mode="sync"
+# or "async".
+VECTOR_IDS = ("neuronav/AntHoming-v0", "neuronav/AntBeacon-v0")
+VECTOR_ENTRY_POINT = "neuronav.scenarios.envs.vector_env:NeuronavVectorEnv"
 
 
 def register_gym_envs() -> None:
@@ -29,7 +38,9 @@ def register_gym_envs() -> None:
 
     for env_id, task in GYM_IDS.items():
         if env_id not in gymnasium.registry:
-            gymnasium.register(env_id, entry_point="neuronav.scenarios.envs.gym_env:NeuronavEnv", kwargs={"task": task})
+            vector = VECTOR_ENTRY_POINT if env_id in VECTOR_IDS else None
+            gymnasium.register(env_id, entry_point="neuronav.scenarios.envs.gym_env:NeuronavEnv", kwargs={"task": task},
+                               vector_entry_point=vector, max_episode_steps=MAX_EPISODE_STEPS[env_id])
 
 
 try:

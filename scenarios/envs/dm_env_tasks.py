@@ -18,6 +18,15 @@ observations as observables, its reward and termination, built by the registered
 The action and its bounds, the clocks (2 ms physics or the scenario's, 8 ms gait, 0.64 s per action)
 and the start pose follow the Gymnasium environment's locomotion mode
 (:mod:`neuronav.scenarios.envs.gym_env`); the episode seed comes from the environment's ``random_state``.
+The action rule is the Gymnasium environment's (:data:`neuronav.scenarios.envs.observations.ACTION_RULE`):
+finite actions outside the bounds are clipped to them; another shape, not finite, or not real numbers
+(a string, a dict, complex): a :class:`~neuronav.errors.PortError`.
+
+The observables are the task's backend ports as the backend reports them (``heading`` in rad
+clockwise from +y, ``velocity`` m/s in world (x, y), eyes as grey floats in [0, 1]) and its computed
+observations (``home_vector``, body frame); the Gymnasium environment's conventions (heading as
+(sin, cos), body-frame velocity, uint8 eyes) are made from the same readings by
+:func:`neuronav.scenarios.envs.observations.observe`.
 """
 
 from __future__ import annotations
@@ -29,7 +38,7 @@ import numpy as np
 from neuronav import registry
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.gaits import make_gait
-from neuronav.scenarios.envs.tasks import TASKS, make_task
+from neuronav.scenarios.envs.tasks import TASKS, check_world_seed, make_task
 from neuronav.scenarios.path_integration.embodied import EXTRA_STRIDE_RAD, MIN_STRIDE_RAD
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S
 
@@ -58,11 +67,13 @@ def load(name: str, *, world_seed: int = 0, random_state: int | np.random.Random
     Raises
     ------
     ConfigError
-        An unknown task, or a setting its scenario does not have or does not allow.
+        An unknown task, a setting its scenario does not have or does not allow, or a ``world_seed`` that
+        is not an int >= 0 (None is refused: the beacon's forest would not be reproducible).
     RegistryError
         The dm_control backend is not installed (dm-control installs on Python < 3.13 only).
     """
     task = make_task(name, **settings)
+    world_seed = check_world_seed(world_seed)
     backend = registry.load("backend", "dm_control")  # the class: reached by name, never imported
     body = desert_ant()
     low, high = action_bounds()

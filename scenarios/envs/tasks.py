@@ -25,7 +25,8 @@ The API, all a task offers:
 - ``task.goal_m`` (2,) m; ``task.success_radius_m``; ``task.time_limit_s`` (the scenario's timeout);
 - ``task.backends``: the backends its scenario runs on; ``task.physics_timestep_s``: the scenario's
   physics step of the ant on a physics backend;
-- ``task.observation_ports``: the backend sensors an agent observes; ``task.task_sensors``: the
+- ``task.observation_ports``: the backend sensors an agent observes (made into the environments'
+  observations by :mod:`neuronav.scenarios.envs.observations`); ``task.task_sensors``: the
   :class:`~neuronav.spec.ports.SensorSpec` of observations the task computes itself (``observe``);
 - ``task.state_ports``: every sensor the task reads (``position`` and ``heading`` first);
 - ``read_state(backend, task)`` -> the state: ``{port: reading}`` of agent 0, batch dimension removed;
@@ -33,16 +34,23 @@ The API, all a task offers:
 - ``task.reward(prev_state, state)``: progress toward the goal in m (distance before minus after);
 - ``task.terminated(state)``: the goal is reached (the body, or for the plume an antenna tip,
   within ``success_radius_m``);
+- ``observe``, ``distance_m``, ``reward`` and ``terminated`` also take a batched state (every reading
+  with a leading axis of N agents, as a backend reads it) and then give (N,) arrays (``observe``:
+  (N, ...)); ``task.goal_of(state)``: the goal, the state's ``goal_m`` (N, 2) where an environment
+  moved it (``reset(options={"goal_m": ...})``, only where ``task.movable_goal``), else ``goal_m``;
+- ``task.seeded_world``: whether ``world(seed)`` depends on the seed (the beacon's forest);
 - ``task.step_limit(step_s)``: how many steps of ``step_s`` fit in ``time_limit_s`` (an episode
   that reaches it is truncated, not terminated).
 
-``make_task(name, **settings)`` builds a task by name (:data:`TASKS`) with its scenario's settings.
+``make_task(name, **settings)`` builds a task by name (:data:`TASKS`) with its scenario's settings;
+``check_world_seed(seed)``: a world seed every adapter accepts (an int >= 0; None is refused).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from numbers import Integral
 from typing import Any, ClassVar
 
 import numpy as np
@@ -97,6 +105,9 @@ class NavigationTask:
     success_radius_key: ClassVar[str]  # m
     time_limit_key: ClassVar[str]  # s
     physics_timestep_key: ClassVar[str] = "timestep_s"  # s, the ant's physics step on a physics backend
+    # Whether an episode may move the goal (a goal with nothing built at it), and whether the world depends on its seed.
+    movable_goal: ClassVar[bool] = False
+    seeded_world: ClassVar[bool] = False
 
     def __init__(self, **settings: Any) -> None:
         self.config = build_config(self.config_type, settings)
@@ -148,21 +159,27 @@ class NavigationTask:
         """The task's own observations (named as in ``task_sensors``); none by default."""
         return {}
 
-    def distance_m(self, state: dict[str, np.ndarray]) -> float:
-        """The body's (root's) distance to the goal in the ground plane."""
-        return float(np.hypot(*(np.asarray(state["position"], float) - self.goal_m)))
+    def goal_of(self, state: dict[str, np.ndarray]) -> np.ndarray:
+        """The episode's goal (..., 2) m: the state's ``goal_m`` where an environment moved it, else :attr:`goal_m`."""
+        return np.asarray(state["goal_m"], float) if "goal_m" in state else self.goal_m
 
-    def reach_distance_m(self, state: dict[str, np.ndarray]) -> float:
+    def distance_m(self, state: dict[str, np.ndarray]) -> float | np.ndarray:
+        """The body's (root's) distance to the goal in the ground plane (m; (N,) for a batched state)."""
+        offset = np.asarray(state["position"], float)[..., :2] - self.goal_of(state)
+        return _scalar(np.hypot(offset[..., 0], offset[..., 1]))
+
+    def reach_distance_m(self, state: dict[str, np.ndarray]) -> float | np.ndarray:
         """The distance that decides success (the root's, unless a task says otherwise)."""
         return self.distance_m(state)
 
-    def reward(self, prev_state: dict[str, np.ndarray], state: dict[str, np.ndarray]) -> float:
+    def reward(self, prev_state: dict[str, np.ndarray], state: dict[str, np.ndarray]) -> float | np.ndarray:
         """Progress toward the goal (m): the distance before the step minus the distance after."""
         return self.distance_m(prev_state) - self.distance_m(state)
 
-    def terminated(self, state: dict[str, np.ndarray]) -> bool:
-        """Whether the goal is reached."""
-        return bool(self.reach_distance_m(state) <= self.success_radius_m)
+    def terminated(self, state: dict[str, np.ndarray]) -> bool | np.ndarray:
+        """Whether the goal is reached (a bool; (N,) bools for a batched state)."""
+        reached = np.asarray(self.reach_distance_m(state)) <= self.success_radius_m
+        return bool(reached) if reached.ndim == 0 else reached
 
     def step_limit(self, step_s: float) -> int:
         """Steps of ``step_s`` in ``time_limit_s`` (rounded up): the episode's length before truncation."""
@@ -172,7 +189,7 @@ class NavigationTask:
 
 
 def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: float,
-                  attempt: int = 0) -> tuple[np.ndarray, float]:
+                  attempt: int = 0, poses: list | None = None) -> tuple[np.ndarray, float]:
     """The end of embodied homing's foraging walk, engine-free: (position (2,) m, heading rad).
 
     The same walk as :class:`neuronav.scenarios.path_integration.embodied.HomingBrain` commands (from the nest, heading
@@ -182,6 +199,7 @@ def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: flo
     interpolation the backend's step calls, in 8 ms steps. Each gait cycle's constant command is summed in
     closed form, which ends within 1e-9 m of the backend's step-by-step walk (``tests/unit/test_env_tasks.py``).
     ``attempt`` 0 draws trial ``seed``'s walk as the scenario does; other attempts draw other walks.
+    ``poses``, a list, receives (position, heading) at the start and at the end of every gait cycle.
     """
     calibration = unicycle_calibration()
     streams = [] if attempt == 0 else [attempt]
@@ -191,6 +209,8 @@ def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: flo
     steps_per_cycle = int(round(CYCLE_S / CONTROL_S))
     cycles = int(math.ceil(outbound_s / CYCLE_S - 1e-9))
     walk_rng = np.random.default_rng([seed, 2, *streams])
+    if poses is not None:
+        poses.append((position, heading))
     for _ in range(cycles):
         turn = float(np.clip(0.7 * turn + walk_rng.normal(0.0, turn_std), -1.0, 1.0))
         speed_m_s, turn_rate_rad_s = calibration.rates(turn, stride_rad)
@@ -199,6 +219,8 @@ def foraging_walk(seed: int, outbound_s: float, turn_std: float, stride_rad: flo
         headings = heading + w_rad_s * CONTROL_S * np.arange(1, steps_per_cycle + 1)
         position = position + v_m_s * CONTROL_S * np.array([np.sin(headings).sum(), np.cos(headings).sum()])
         heading = float(headings[-1])
+        if poses is not None:
+            poses.append((position, heading))
     return position, float(np.mod(heading, 2.0 * np.pi))
 
 
@@ -219,6 +241,19 @@ class HomingTask(NavigationTask):
     success_radius_key = "nest_radius_m"
     time_limit_key = "homing_timeout_s"
     physics_timestep_key = "embodied_timestep_s"
+    movable_goal = True  # the nest is a point on a bare floor
+
+    def __init__(self, home_vector: str = "oracle", **settings: Any) -> None:
+        """``home_vector``: ``oracle`` (the true vector) or ``cx`` (the CX's estimate after integrating the
+        foraging walk: :mod:`neuronav.scenarios.envs.path_integrator`); ``path_integrator``: the CX that ``start``
+        primes with the walk (None with ``oracle`` unless a brain wrapper attaches one)."""
+        from neuronav.scenarios.envs.path_integrator import HOME_VECTORS, CXPathIntegrator
+
+        if home_vector not in HOME_VECTORS:
+            raise ConfigError(f"homing: home_vector must be one of {', '.join(HOME_VECTORS)}; got {home_vector!r}")
+        super().__init__(**settings)
+        self.home_vector = home_vector
+        self.path_integrator = CXPathIntegrator(self.config) if home_vector == "cx" else None
 
     def world(self, seed: int = 0) -> World:
         return World(ground=Ground(size_m=HOMING_FLOOR_M))
@@ -236,12 +271,21 @@ class HomingTask(NavigationTask):
             raise ConfigError(f"homing: no foraging walk of {MAX_WALKS} ended {MIN_START_RADII} nest radii "
                               f"({MIN_START_RADII * self.config.nest_radius_m:g} m) from the nest; lengthen "
                               f"outbound_s ({self.config.outbound_s:g} s) or shrink nest_radius_m")
+        if self.path_integrator is not None:  # the CX integrates this walk (path_integrator.episode_integrator)
+            from neuronav.scenarios.envs.path_integrator import episode_integrator
+
+            episode_integrator(self, seed, attempt)
         return Start(position, heading)
 
     def observe(self, state: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        forward, left = forward_left(float(np.asarray(state["heading"]).reshape(-1)[0]))
-        home = self.goal_m - np.asarray(state["position"], float)
-        return {"home_vector": np.array([home @ forward, home @ left])}
+        if self.home_vector == "cx":  # the CX's vector, in the oracle's frame: the body where the CX believes it
+            self.path_integrator.update(state)
+            state = dict(state, position=self.goal_of(state) - self.path_integrator.home_vector_world_m())
+        heading = np.asarray(state["heading"], float)[..., 0]  # a batched state (N, 1) gives (N, 2)
+        home = self.goal_of(state) - np.asarray(state["position"], float)[..., :2]
+        forward = home[..., 0] * np.sin(heading) + home[..., 1] * np.cos(heading)
+        left = -home[..., 0] * np.cos(heading) + home[..., 1] * np.sin(heading)
+        return {"home_vector": np.stack(np.broadcast_arrays(forward, left), axis=-1)}
 
 
 class BeaconTask(NavigationTask):
@@ -259,6 +303,7 @@ class BeaconTask(NavigationTask):
     goal_keys = (0.0, "landmark_distance_m")
     success_radius_key = "success_radius_m"
     time_limit_key = "timeout_s"
+    seeded_world = True  # the forest
 
     def world(self, seed: int = 0) -> World:
         return beacon_world(self.config, seed)
@@ -295,10 +340,11 @@ class PlumeTask(NavigationTask):
         position, heading = start_pose(self.config, seed)
         return Start(position, heading)
 
-    def reach_distance_m(self, state: dict[str, np.ndarray]) -> float:
-        points = np.vstack([np.asarray(state["position"], float)[None, :2],
-                            np.asarray(state["odour_sites"], float)[:, :2]])
-        return float(np.hypot(*(points - self.goal_m).T).min())
+    def reach_distance_m(self, state: dict[str, np.ndarray]) -> float | np.ndarray:
+        points = np.concatenate([np.asarray(state["position"], float)[..., None, :2],
+                                 np.asarray(state["odour_sites"], float)[..., :, :2]], axis=-2)
+        offset = points - self.goal_of(state)[..., None, :]
+        return _scalar(np.hypot(offset[..., 0], offset[..., 1]).min(axis=-1))
 
 
 TASKS: dict[str, type[NavigationTask]] = {task.name: task for task in (HomingTask, BeaconTask, PlumeTask)}
@@ -315,6 +361,21 @@ def make_task(name: str, **settings: Any) -> NavigationTask:
     if name not in TASKS:
         raise ConfigError(f"unknown task {name!r}; allowed: {', '.join(TASKS)}")
     return TASKS[name](**settings)
+
+
+def check_world_seed(world_seed: Any, name: str = "world_seed") -> int:
+    """``world_seed`` as an int >= 0, or a ConfigError (None too: the world would not be reproducible);
+    ``name``: what the message calls it (an episode's ``seed`` is checked the same way where it is given)."""
+    if isinstance(world_seed, bool) or not isinstance(world_seed, Integral) or world_seed < 0:
+        what = ("the seed of the task's world, e.g. the beacon's forest; None is refused: the world would not be "
+                "reproducible") if name == "world_seed" else "or None"
+        raise ConfigError(f"{name} must be an int >= 0 ({what}); got {world_seed!r}")
+    return int(world_seed)
+
+
+def _scalar(value: np.ndarray) -> float | np.ndarray:
+    """A 0-d result as a float (an unbatched state), else the array (a batched one)."""
+    return float(value) if np.ndim(value) == 0 else value
 
 
 def read_state(backend, task: NavigationTask) -> dict[str, np.ndarray]:

@@ -1,7 +1,9 @@
-"""A cheap top view of one agent's episode, for ``render_mode="rgb_array"`` without a camera.
+"""Frames of an episode: a cheap top view without a camera, and the goal drawn into a follow camera's frame.
 
 The kinematic backend has no follow camera: :func:`top_view` draws the path walked so far, the
-agent and its heading, and the goal with its success radius, in numpy, on a square framing them.
+agent and its heading, and the goal with its success radius, in numpy, on a square framing them. A
+physics backend's follow camera does not show the goal (nothing is built at the nest or the plume's
+source): :func:`draw_goal` projects the goal's success circle and a pole into its frame.
 """
 
 from __future__ import annotations
@@ -44,4 +46,69 @@ def top_view(path_m: np.ndarray, heading_rad: float, goal_m: np.ndarray, radius_
         image[pixel(path[-1] + t * (tip - path[-1]))] = AGENT
     row, col = pixel(path[-1])
     image[max(row - 1, 0):row + 2, max(col - 1, 0):col + 2] = AGENT
+    return image
+
+
+def _stamp(image: np.ndarray, rows: np.ndarray, cols: np.ndarray, colour: tuple[int, int, int],
+           half_px: int = 1) -> None:
+    """Set the pixels within ``half_px`` of each (row, col) inside the image to ``colour``."""
+    height, width = image.shape[:2]
+    for dr in range(-half_px, half_px + 1):
+        for dc in range(-half_px, half_px + 1):
+            r, c = rows + dr, cols + dc
+            inside = (r >= 0) & (r < height) & (c >= 0) & (c < width)
+            image[r[inside], c[inside]] = colour
+
+
+def project(view, points_m: np.ndarray, image_shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pixel (rows, cols) of world points (P, 3) in a follow camera's image, and whether each lies in front of it.
+
+    ``view``: a :class:`~neuronav.engine.articulated.FollowView` (eye, target, up, ``fov_deg`` vertical); a
+    pinhole camera looking from ``eye`` at ``target`` with ``up`` up, on an image of ``image_shape`` (H, W, ...).
+    """
+    height, width = image_shape[:2]
+    forward = np.asarray(view.target, float) - np.asarray(view.eye, float)
+    forward /= np.linalg.norm(forward)
+    right = np.cross(forward, np.asarray(view.up, float))
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    offset = np.asarray(points_m, float) - np.asarray(view.eye, float)
+    depth = offset @ forward
+    front = depth > 1e-6
+    focal_px = height / 2.0 / np.tan(np.radians(view.fov_deg) / 2.0)
+    safe = np.where(front, depth, 1.0)
+    cols = width / 2.0 + focal_px * (offset @ right) / safe
+    rows = height / 2.0 - focal_px * (offset @ up) / safe
+    return rows, cols, front
+
+
+def draw_goal(frame: np.ndarray, view, goal_m: np.ndarray, radius_m: float, ground_z_m: float = 0.0) -> np.ndarray:
+    """A copy of a follow-camera ``frame`` (H, W, 3) uint8 with the goal drawn in :data:`GOAL` colour: its
+    success circle of ``radius_m`` on the ground, a pole at its centre (as high as the radius, at least
+    0.3 m), and, when the goal's centre is out of view, a square on the frame's edge toward it."""
+    image = np.array(frame, copy=True)
+    height, width = image.shape[:2]
+    goal = np.asarray(goal_m, float).reshape(-1)[:2]
+    angles = np.linspace(0.0, 2.0 * np.pi, 129)
+    ring = np.column_stack([goal[0] + radius_m * np.cos(angles), goal[1] + radius_m * np.sin(angles),
+                            np.full(angles.size, ground_z_m)])
+    pole = np.column_stack([np.repeat(goal[None], 33, axis=0), ground_z_m + np.linspace(0.0, max(radius_m, 0.3), 33)])
+    for points in (ring, pole):  # each polyline densified to about half a pixel between samples
+        rows, cols, front = project(view, points, image.shape)
+        for k in range(len(points) - 1):
+            if not (front[k] and front[k + 1]):
+                continue
+            span = max(abs(rows[k + 1] - rows[k]), abs(cols[k + 1] - cols[k]))
+            if not np.isfinite(span) or span > 4 * (height + width):
+                continue
+            t = np.linspace(0.0, 1.0, int(span * 2) + 2)
+            _stamp(image, np.rint(rows[k] + t * (rows[k + 1] - rows[k])).astype(int),
+                   np.rint(cols[k] + t * (cols[k + 1] - cols[k])).astype(int), GOAL)
+    rows, cols, front = project(view, np.array([[goal[0], goal[1], ground_z_m]]), image.shape)
+    if not (front[0] and 0 <= rows[0] < height and 0 <= cols[0] < width):
+        # Out of view: a square on the edge, in the goal's direction from the image centre.
+        direction = np.array([rows[0] - height / 2.0, cols[0] - width / 2.0]) * (1.0 if front[0] else -1.0)
+        direction /= max(np.abs(direction / np.array([height / 2.0 - 8, width / 2.0 - 8])).max(), 1e-9)
+        row, col = int(height / 2.0 + direction[0]), int(width / 2.0 + direction[1])
+        _stamp(image, np.array([row]), np.array([col]), GOAL, half_px=6)
     return image

@@ -189,8 +189,8 @@ class ChannelOdometer(Hook):
             step_m = float(self.unicycle.update(turn, stride, loop.clocks.control_dt_s)[0])
             self.distance_m += step_m * float(np.dot(forward, self.axis))
             return
-        sensed = loop.backend.read(("joint_pos", "contact_force"))
-        moved = self.steps.update(sensed["joint_pos"][0], sensed["contact_force"][0])
+        sensed = loop.backend.read(("joint_pos", "contact_load"))
+        moved = self.steps.update(sensed["joint_pos"][0], sensed["contact_load"][0])
         self.distance_m += float(np.dot(moved[0] * forward + moved[1] * left, self.axis))
 
     def crossing_m(self, reading_m: float) -> np.ndarray:

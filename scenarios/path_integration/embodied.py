@@ -249,8 +249,9 @@ def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=N
     return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=simulated)
 
 
-def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tuple[dict, dict]:
-    """One foraging trip and homing; returns the metrics row and the per-cycle log."""
+def embodied_trial(config, backend_name: str, seed: int, video_path=None, extra_hooks=()) -> tuple[dict, dict]:
+    """One foraging trip and homing; returns the metrics row and the per-cycle log. ``extra_hooks`` ride
+    along in the loop without feeding the brain (a benchmark's probe)."""
     rng = np.random.default_rng([seed, 3])
     heading0 = float(rng.uniform(0.0, 2.0 * np.pi))
     world = World(ground=Ground(size_m=80.0), appearance=Appearance(ground_texture=config.ground_texture))
@@ -267,7 +268,7 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None) -> tup
     noise = homing_noise(config, [seed], noise_cycles(config.outbound_s + config.homing_timeout_s))
     if compass == "sky":
         world = World(ground=world.ground, appearance=world.appearance, sky=run_sky(config))
-    hooks, odometer = [], None
+    hooks, odometer = list(extra_hooks), None
     if odometry == "steps":
         # The body the brain believes it has: the desert ant as built (fixed for the trial).
         odometer = StrideCounter(engine.calibration) if backend_name == "kinematic" else LegOdometer(body)

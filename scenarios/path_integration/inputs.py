@@ -16,9 +16,9 @@ Odometer (``odometry``):
 - ``true``: the body's displacement over the gait cycle (or its velocity sensor, ``velocity_input``),
   scaled by 1 + N(0, ``odometry_noise_fraction``) under ``variability=on``.
 - ``steps``: on an articulated body, the step odometer (:class:`neuronav.bodies.step_odometer.StepOdometer`)
-  updated every control step from the joint angles and leg loads through the leg kinematics of the body
-  the brain believes it has (the desert ant as built, fixed at the start); on the kinematic unicycle,
-  strides × the believed stride length of the commanded stride
+  sampled every control step (joint angles and leg loads; updated once per gait cycle) through the leg
+  kinematics of the body the brain believes it has (the desert ant as built, fixed at the start); on the
+  kinematic unicycle, strides × the believed stride length of the commanded stride
   (:class:`neuronav.bodies.step_odometer.UnicycleStrideOdometer`).
 - ``optic_flow``: the image motion of a ventral eye patch looking straight down at the rendered ground
   (:class:`FlowOdometer`, :mod:`neuronav.senses.optic_flow`): the desert ant built with ``ventral_eye=True``;
@@ -132,51 +132,70 @@ class SkyView:
         return rotations if self.mount is None else rotations @ self.mount
 
     def __call__(self, backend) -> np.ndarray:
-        rotations = self.head_rotations(backend)
-        visible = None
-        if self.occludes:
-            directions = self.rim.sky_directions(rotations)  # (N, M, 3)
-            heads = backend.read(("head_pos",))["head_pos"].reshape(-1, 3)
-            origins = np.repeat(heads, directions.shape[1], axis=0)
-            hits = backend.cast_rays(origins, directions.reshape(-1, 3))
-            visible = ~np.isfinite(hits).reshape(directions.shape[:2])
+        if not self.occludes:
+            return self.rim.responses(self.sky, self.head_rotations(backend))
+        head = backend.read(("head_quat", "head_pos"))  # one read: the head's pose is found once
+        rotations = rotations_from_quaternions(head["head_quat"].reshape(-1, 4))
+        if self.mount is not None:
+            rotations = rotations @ self.mount
+        directions = self.rim.sky_directions(rotations)  # (N, M, 3)
+        heads = head["head_pos"].reshape(-1, 3)
+        origins = np.repeat(heads, directions.shape[1], axis=0)
+        hits = backend.cast_rays(origins, directions.reshape(-1, 3))
+        visible = ~np.isfinite(hits).reshape(directions.shape[:2])
         return self.rim.responses(self.sky, rotations, visible)
 
 
 class LegOdometer(Hook):
-    """The step odometer of an articulated body, updated after every ``sample_every``-th control step.
+    """The step odometer of an articulated body, sampled after every ``sample_every``-th control step.
 
-    :meth:`take` gives the displacement since the last take in the body frame of now (forward, left),
-    from the odometer's integrated pose.
+    Each sample reads the proprioception (``joint_pos`` and ``contact_load``, the legs' loads in the last
+    physics step) into a buffer; :meth:`take` runs the buffered samples through the odometer at once
+    (:meth:`StepOdometer.update_many`, the same numbers as one update per sample) and gives the
+    displacement since the last take in the body frame of now (forward, left), from the odometer's
+    integrated pose. Buffering keeps the per-step cost to one read and a copy: the odometer's work is
+    done once per brain period, in array operations.
 
     Parameters
     ----------
     believed_body : BodySpec
         The body the brain believes it has (fixed for the trial).
     sample_every : int
-        Read the proprioception (``joint_pos``, ``contact_force``) and update the odometer every this
-        many control steps (8 ms each), counted from the episode's start (which is always read). It
-        must divide the brain's period (80 control steps) for :meth:`take` to see a fresh sample.
-        Default ``LEG_ODOMETER_SAMPLE_EVERY`` = 1, every control step: sparser samples change what the
-        odometer reads by more than 1 % of the distance walked (6 gait cycles straight: every 2nd step
-        +8.9 % on MuJoCo, −0.7 % on PyBullet; every 8th +17.1 % / −12.0 %; turning at ``turn`` 0.3 every
-        8th integrates 28° / 52° of a true 66° / 98° turn, every step 74° / 85°), because on the engines
-        the set of loaded legs changes every few steps (a tripod's legs unload in mid stance) and an
-        interval with no leg loaded at both of its ends adds nothing. Strides are still marked at
-        every 8th step. Measured with ``python benchmarks/step_odometer.py --sampling``; the cost of
-        each period with ``python benchmarks/step_odometer.py`` (bodies/desert_ant/README.md, "Speed").
+        Sample every this many control steps (8 ms each), counted from the episode's start (which is
+        always read). It must divide the brain's period (80 control steps) for :meth:`take` to see a
+        fresh sample. Default ``LEG_ODOMETER_SAMPLE_EVERY`` = 1, every control step: sparser samples
+        change what the odometer reads by more than 1 % of the distance walked (6 gait cycles straight:
+        every 2nd step +8.2 % on MuJoCo, −0.7 % on PyBullet; every 8th +17.3 % / −12.0 %; turning at
+        ``turn`` 0.3 every 8th integrates 46° / 52° of a true 66° / 98° turn, every step 72° / 85°),
+        because on the engines the set of loaded legs changes every few steps (a tripod's legs unload in
+        mid stance) and an interval with no leg loaded at both of its ends adds nothing. Strides are
+        still marked at every 8th step. Measured with ``python benchmarks/step_odometer.py --sampling``;
+        the cost with ``python benchmarks/step_odometer.py`` (bodies/desert_ant/README.md, "Speed").
     """
+
+    SENSORS = ("joint_pos", "contact_load")
 
     def __init__(self, believed_body, sample_every: int = LEG_ODOMETER_SAMPLE_EVERY) -> None:
         if isinstance(sample_every, bool) or not isinstance(sample_every, int | np.integer) or sample_every < 1:
             raise ConfigError(f"LegOdometer: sample_every must be an int >= 1, got {sample_every!r}")
-        self.odometer = StepOdometer(believed_body)
+        self._odometer = StepOdometer(believed_body)
         self.sample_every = int(sample_every)
         self._taken_m = np.zeros(2)
+        self._samples: list[np.ndarray] = []  # joint angles then contact loads, one array per sample
+        self._sample_now = None  # the backend's sampler of SENSORS, made at the episode's start
+
+    @property
+    def odometer(self) -> StepOdometer:
+        """The step odometer, with every buffered sample applied."""
+        self.flush()
+        return self._odometer
 
     def initialize_episode(self, loop: AgentLoop) -> None:
-        self.odometer.reset()
+        self._odometer.reset()
+        self._samples = []
         self._taken_m = np.zeros(2)
+        sampler = getattr(loop.backend, "sampler", None)
+        self._sample_now = sampler(self.SENSORS) if sampler is not None else self._read_sample(loop.backend)
         self._sample(loop)
 
     def after_step(self, loop: AgentLoop) -> None:
@@ -184,13 +203,29 @@ class LegOdometer(Hook):
             self._sample(loop)
 
     def _sample(self, loop: AgentLoop) -> None:
-        sensed = loop.backend.read(("joint_pos", "contact_force"))
-        self.odometer.update(sensed["joint_pos"][0], sensed["contact_force"][0])
+        self._samples.append(self._sample_now())
+
+    @classmethod
+    def _read_sample(cls, backend):
+        """A sampling function through ``backend.read`` (for a backend without ``sampler``)."""
+        def sample() -> np.ndarray:
+            sensed = backend.read(cls.SENSORS)
+            return np.concatenate([np.ravel(sensed[name][0]) for name in cls.SENSORS])
+        return sample
+
+    def flush(self) -> None:
+        """Run the buffered samples through the odometer."""
+        if self._samples:
+            samples = np.array(self._samples)
+            joints = self._odometer.joint_count
+            self._odometer.update_many(samples[:, :joints], samples[:, joints:])
+            self._samples = []
 
     def take(self) -> np.ndarray:
-        moved = self.odometer.position_m - self._taken_m
-        self._taken_m = self.odometer.position_m.copy()
-        yaw = self.odometer.yaw_rad  # counter-clockwise, in the frame of the first update
+        odometer = self.odometer
+        moved = odometer.position_m - self._taken_m
+        self._taken_m = odometer.position_m.copy()
+        yaw = odometer.yaw_rad  # counter-clockwise, in the frame of the first update
         c, s = np.cos(yaw), np.sin(yaw)
         return np.array([c * moved[0] + s * moved[1], -s * moved[0] + c * moved[1]])
 

@@ -15,12 +15,10 @@ a sine of 3 m amplitude and 20 m wavelength from the origin, ``route_m`` long).
    · min(1, ``klinokinesis_gain`` · novelty / active KCs); stride 20° in both. Settings left at 0 take
    the body's own values (:func:`body_steering`).
 
-With ``forest_seed`` ≥ 0 the trials share one forest and route, tested as one batch on kinematic. Eyes:
-the ant's panoramic camera, ray cast at one ray per pixel on kinematic, rendered on the physics backends.
-
-Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came
-within ``reach_m`` of, the mean and maximum distance of the test path from the route, success (the
-last checkpoint reached), the views stored.
+With ``forest_seed`` ≥ 0 the trials share one forest and route, tested as one batch on kinematic. Eyes: the
+panoramic camera, or (``eyes=compound``) one ``eye_channel`` of the compound eyes (:mod:`.compound_view`).
+Metrics: the fraction of the route's checkpoints (every ``checkpoint_every_m``) the test path came within
+``reach_m`` of, the mean and maximum distance from the route, success (the last checkpoint reached), the views.
 
 Results, sources and model choices: README.md in this folder.
 """
@@ -49,6 +47,7 @@ from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
+from neuronav.scenarios.route_following.compound_view import EYE_CHANNELS, EYE_SENSORS, CompoundPanorama, ant_eyes
 from neuronav.scenarios.tools.mb_familiarity import SPACING_M, forest_world, panoramas, route
 from neuronav.scenarios.trial_loop import pack_cycle_logs
 from neuronav.scenarios.variability import is_on, trial_generators, variability_field
@@ -60,6 +59,7 @@ LOOKAHEAD_M = 1.0
 COLUMN_DEG = 5.0  # one column of the 72-column panorama
 LOG_KEYS = ("time_s", "heading_rad", "novelty", "turn", "kc_active")
 STRATEGIES = ("scan", "klinokinesis")
+EYES = ("camera", "compound")
 
 
 @dataclass
@@ -99,13 +99,18 @@ class RouteFollowingConfig:
                              "learnt once and, on the kinematic backend, tested by all trials as one batch of "
                              "agents; -1: each trial grows its own forest from its seed (trials one at a time)",
                              min=-1, max=2**31 - 1)
+    eyes: str = field("camera", "what the mushroom body sees: camera (the ant's panoramic camera, grey) or compound "
+                      "(its two compound eyes' ommatidia, one channel: eye_channel)", choices=EYES)
+    eye_channel: str = field("uv", "eyes=compound: the ommatidia's channel the view code is made of: green, uv, or "
+                             "uv_green (the UV-green contrast (UV - G) / (UV + G))", choices=EYE_CHANNELS)
     variability: str = variability_field()
     release_jitter_m: float = field(0.1, "variability: each trial's release moved by a seeded Gaussian offset of "
                                     "this standard deviation on each axis (m)", min=0.0, max=5.0)
     release_heading_jitter_deg: float = field(10.0, "variability: each trial's release heading turned by a seeded "
                                               "Gaussian angle of this standard deviation (deg)", min=0.0, max=180.0)
     eye_noise: float = field(0.02, "variability: Gaussian noise added to every pixel of every view the mushroom "
-                             "body reads, training and test (standard deviation, grey levels 0-1)", min=0.0, max=1.0)
+                             "body reads, training and test (standard deviation, grey levels 0-1; with "
+                             "eyes=compound in the channel's units)", min=0.0, max=1.0)
     turn_noise: float = field(0.03, "variability: Gaussian noise added to each gait cycle's test turn θ "
                               "(standard deviation; θ = ±1 turns on the spot)", min=0.0, max=1.0)
     stride_noise_deg: float = field(1.0, "variability: Gaussian noise added to each gait cycle's test stride of 20° "
@@ -198,14 +203,47 @@ def body_steering(config: RouteFollowingConfig, backend: str) -> RouteFollowingC
     return replace(config, **{key: value for key, value in own.items() if not getattr(config, key)})
 
 
-def make_route_engine(backend_name: str, timestep_s: float):
-    """(engine, body, gait, physics step): the ant on a physics backend, or the kinematic unicycle with
-    the ant's panoramic camera at one ray per pixel (the supersampled one costs 16x the rays)."""
+def make_route_engine(backend_name: str, timestep_s: float, eyes: str = "camera"):
+    """(engine, body, gait, physics step): the ant on a physics backend (with its compound eyes when ``eyes`` is
+    ``compound``), or the kinematic unicycle with the ant's panoramic camera at one ray per pixel (the
+    supersampled one costs 16x the rays) or its two compound eyes."""
     if backend_name != "kinematic":
-        return make_engine(backend_name, timestep_s)
-    camera = next(c for c in point_agent_cameras(desert_ant()) if c.name == "panorama")
-    body = PointAgents(count=1, mode="unicycle", cameras=(replace(camera, supersample=1),))
+        return make_engine(backend_name, timestep_s, **({"compound_eyes": True} if eyes == "compound" else {}))
+    if eyes == "compound":
+        body = PointAgents(count=1, mode="unicycle", compound_eyes=ant_eyes()[0])
+    else:
+        camera = next(c for c in point_agent_cameras(desert_ant()) if c.name == "panorama")
+        body = PointAgents(count=1, mode="unicycle", cameras=(replace(camera, supersample=1),))
     return registry.load("backend", "kinematic")(timestep_s=CONTROL_S), body, None, CONTROL_S
+
+
+class RouteViews:
+    """What the mushroom body sees, as panoramas (N, 72, 72): the panoramic camera's image, or (``eyes`` compound)
+    one channel of the two compound eyes laid out on its grid (:class:`.compound_view.CompoundPanorama`)."""
+
+    def __init__(self, config: RouteFollowingConfig) -> None:
+        self.eyes = config.eyes
+        self.layout = CompoundPanorama(*ant_eyes(), config.eye_channel) if self.eyes == "compound" else None
+        self.sensors = EYE_SENSORS if self.layout else ("panorama",)
+
+    def read(self, backend, also=("position", "heading")) -> tuple[dict, np.ndarray]:
+        """(the sensors ``also`` read with the eyes, the panoramas)."""
+        sensed = backend.read((*also, *self.sensors))
+        return sensed, (self.layout(sensed) if self.layout else sensed["panorama"])
+
+    def at(self, world, positions_m: np.ndarray, headings_rad: np.ndarray, chunk: int = 200) -> np.ndarray:
+        """The panoramas seen from each position and heading, ray cast by the kinematic backend."""
+        if not self.layout:
+            return panoramas(world, positions_m, headings_rad)
+        eyes = ant_eyes()[0]
+        images = []
+        for start in range(0, len(positions_m), chunk):
+            where, facing = positions_m[start:start + chunk], headings_rad[start:start + chunk]
+            backend = registry.load("backend", "kinematic")()
+            backend.load(world, [PointAgents(count=len(where), mode="unicycle", compound_eyes=eyes)])
+            backend.reset(position_m=where, heading_rad=facing)
+            images.append(self.read(backend, also=())[1])
+        return np.concatenate(images)
 
 
 class RouteMemory:
@@ -249,18 +287,19 @@ class GuidedLearning:
     """
 
     def __init__(self, route_m: np.ndarray, memory: RouteMemory, calls_per_cycle: int = 1,
-                 travel_aligned: bool = False, noise: RouteNoise | None = None) -> None:
-        self.route_m, self.memory, self.noise = route_m, memory, noise
+                 travel_aligned: bool = False, noise: RouteNoise | None = None,
+                 views: RouteViews | None = None) -> None:
+        self.route_m, self.memory, self.noise, self.views = route_m, memory, noise, views
         self.calls_per_cycle, self.travel_aligned = calls_per_cycle, travel_aligned
         self.positions: list[np.ndarray] = []
         self.crab_deg: list[float] = []
         self.done = False
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
-        sensed = loop.backend.read(("position", "heading", "panorama"))
+        sensed, panorama = self.views.read(loop.backend) if self.views else _camera_read(loop.backend)
         position, heading = sensed["position"][0], float(sensed["heading"][0, 0])
         self.positions.append(position.copy())
-        panorama = self.noise.view(0, sensed["panorama"]) if self.noise else sensed["panorama"]
+        panorama = self.noise.view(0, panorama) if self.noise else panorama
         self.memory.learn(np.roll(panorama, self.view_roll_columns(heading), axis=-1))
         nearest = int(np.argmin(np.hypot(*(self.route_m - position).T)))
         target = self.route_m[min(nearest + int(round(LOOKAHEAD_M / SPACING_M)), len(self.route_m) - 1)]
@@ -303,8 +342,10 @@ class FamiliaritySteering:
 
     def __init__(self, strategy: str, memory: RouteMemory, route_m: np.ndarray, reach_m: float,
                  views_per_cycle: int = 1, full_turn_deg: float = 30.0,
-                 klinokinesis: tuple[float, float] = (2.0, 1.0), noise: RouteNoise | None = None) -> None:
+                 klinokinesis: tuple[float, float] = (2.0, 1.0), noise: RouteNoise | None = None,
+                 views: RouteViews | None = None) -> None:
         self.strategy, self.memory, self.route_m, self.reach_m = strategy, memory, route_m, reach_m
+        self.views = views
         self.noise, self.stride = noise, STRIDE_RAD
         self.log: dict[str, list] = {k: [] for k in LOG_KEYS}
         self.log["position_m"] = []
@@ -316,8 +357,8 @@ class FamiliaritySteering:
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         """Called ``views_per_cycle`` times per gait cycle; turns once per cycle, on the novelty averaged over
         the last ``views_per_cycle`` views (so that the body's sway within a stride averages out)."""
-        sensed = loop.backend.read(("position", "heading", "panorama"))
-        panorama = self.noise.view(0, sensed["panorama"]) if self.noise else sensed["panorama"]
+        sensed, panorama = self.views.read(loop.backend) if self.views else _camera_read(loop.backend)
+        panorama = self.noise.view(0, panorama) if self.noise else panorama
         offsets, values, active = self.memory.scan(panorama)
         self.recent = [*self.recent, values][-self.views_per_cycle:]
         self.ticks += 1
@@ -340,6 +381,12 @@ class FamiliaritySteering:
         """Within ``reach_m`` of the route's end (checked every control step)."""
         position = loop.backend.read(("position",))["position"][0]
         return bool(np.hypot(*(position - self.route_m[-1])) < self.reach_m)
+
+
+def _camera_read(backend) -> tuple[dict, np.ndarray]:
+    """Position, heading and the panoramic camera's image."""
+    sensed = backend.read(("position", "heading", "panorama"))
+    return sensed, sensed["panorama"]
 
 
 def release_point(points: np.ndarray, headings: np.ndarray, offset_m: float) -> np.ndarray:
@@ -372,7 +419,8 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     config = body_steering(config, backend_name)
     points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
     world = forest_world(points, seed=world_seed(config, seed))
-    engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s)
+    engine, body, gait, physics_dt = make_route_engine(backend_name, config.timestep_s, config.eyes)
+    views = RouteViews(config)
     memory = RouteMemory(config, world_seed(config, seed))
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.test_views_per_cycle)
     training_clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S,
@@ -380,11 +428,11 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     steering = FamiliaritySteering(trial_strategy(config, seed), memory, points, config.reach_m,
                                    config.test_views_per_cycle, config.scan_full_turn_deg,
                                    (config.klinokinesis_gain, config.klinokinesis_max_turn),
-                                   noise=RouteNoise(config, [seed]))
+                                   noise=RouteNoise(config, [seed]), views=views)
     with engine:
         engine.load(world, [body])
         guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views,
-                               noise=RouteNoise(config, [world_seed(config, seed)], "eye_training"))
+                               noise=RouteNoise(config, [world_seed(config, seed)], "eye_training"), views=views)
         training = AgentLoop(engine, gait, training_clocks, steering=guide)
         training.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
         training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
@@ -399,7 +447,7 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
     log["position_m"] = np.array([*steering.log["position_m"], final]).reshape(-1, 2)
     log["train_position_m"] = np.array(guide.positions).reshape(-1, 2)
     if landscape:
-        log.update(familiarity_landscape(memory, world, points, headings))
+        log.update(familiarity_landscape(memory, world, points, headings, views=views))
     row = route_metrics(log["position_m"], points, config, memory.views, test_time_s)
     return dict(row, strategy=steering.strategy, release_offset_m=trial_release_offset_m(config, seed)), log
 
@@ -440,15 +488,16 @@ def densify(path_m: np.ndarray, step_m: float) -> np.ndarray:
 
 
 def familiarity_landscape(memory: RouteMemory, world, points: np.ndarray, headings: np.ndarray,
-                          shape=(9, 13), margin_m: float = 3.0) -> dict:
+                          shape=(9, 13), margin_m: float = 3.0, views: RouteViews | None = None) -> dict:
     """Relative novelty (novelty / active KCs; NaN where no KC fires, e.g. inside a tree's crown) on a
     grid about the route, each point facing the heading of its nearest route point (ray cast with the
-    kinematic backend's eyes)."""
+    kinematic backend's eyes: ``views``', the panoramic camera by default)."""
     low, high = points.min(axis=0) - margin_m, points.max(axis=0) + margin_m
     xs, ys = np.linspace(low[0], high[0], shape[1]), np.linspace(low[1], high[1], shape[0])
     grid = np.stack(np.meshgrid(xs, ys), axis=-1).reshape(-1, 2)
     nearest = np.argmin(np.hypot(*(grid[:, None, :] - points[None, :, :]).transpose(2, 0, 1)), axis=1)
-    codes = panorama_code(panoramas(world, grid, headings[nearest]))
+    images = views.at(world, grid, headings[nearest]) if views else panoramas(world, grid, headings[nearest])
+    codes = panorama_code(images)
     values = novelty(memory.judge, codes)
     active = novelty(memory.circuit.compile(batch=memory.judge.batch), codes)  # nothing learnt: every active KC
     relative = np.divide(values, active, out=np.full_like(values, np.nan), where=active > 0)
@@ -532,12 +581,12 @@ def pack_route_logs(logs: list[dict], config: RouteFollowingConfig) -> dict[str,
 
 
 def train_once(config: RouteFollowingConfig, world, points: np.ndarray, headings: np.ndarray,
-               memory: RouteMemory) -> np.ndarray:
+               memory: RouteMemory, views: RouteViews | None = None) -> np.ndarray:
     """The guided training walk on the kinematic unicycle (one agent); the learnt memory frozen. Its path."""
-    engine, body, gait, physics_dt = make_route_engine("kinematic", config.timestep_s)
+    engine, body, gait, physics_dt = make_route_engine("kinematic", config.timestep_s, config.eyes)
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S / config.views_per_cycle)
     guide = GuidedLearning(points, memory, config.views_per_cycle, config.travel_aligned_views,
-                           noise=RouteNoise(config, [config.forest_seed], "eye_training"))
+                           noise=RouteNoise(config, [config.forest_seed], "eye_training"), views=views)
     with engine:
         engine.load(world, [body])
         training = AgentLoop(engine, gait, clocks, steering=guide)
@@ -558,14 +607,15 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
     points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
     world = forest_world(points, seed=config.forest_seed)
     memory = RouteMemory(config, config.forest_seed)
-    train_path = train_once(config, world, points, headings, memory)
+    views = RouteViews(config)
+    train_path = train_once(config, world, points, headings, memory, views)
     n = len(seeds)
     releases = [trial_start(config, points, headings, s) for s in seeds]
     starts = np.array([position for position, _ in releases]).reshape(-1, 2)
     start_headings = np.array([heading for _, heading in releases])
     trial_strategies = [trial_strategy(config, s) for s in seeds]
     noise = RouteNoise(config, seeds)
-    engine, body, _, _ = make_route_engine("kinematic", config.timestep_s)
+    engine, body, _, _ = make_route_engine("kinematic", config.timestep_s, config.eyes)
     body = replace(body, count=n)
     controls = int(round(CYCLE_S / CONTROL_S))
     done_s, final = np.full(n, np.nan), np.full((n, 2), np.nan)
@@ -575,11 +625,11 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
         engine.load(world, [body])
         engine.reset(seed=0, position_m=starts, heading_rad=start_headings)
         while engine.time < config.duration_s - 1e-9 and np.isnan(done_s).any():
-            sensed = engine.read(("position", "heading", "panorama"))
+            sensed, seen = views.read(engine)
             turn, stride = np.zeros((n, 1)), np.zeros((n, 1))
             sides = -sides
             for i in np.flatnonzero(np.isnan(done_s)):
-                offsets, values, active = memory.scan(noise.view(i, sensed["panorama"][i:i + 1]))
+                offsets, values, active = memory.scan(noise.view(i, seen[i:i + 1]))
                 ahead = values[np.flatnonzero(offsets == 0.0)[0]]
                 turn[i, 0], stride[i, 0] = noise.command(i, familiarity_turn(
                     trial_strategies[i], memory, offsets, values, active, sides[i], config.scan_full_turn_deg,
@@ -608,5 +658,5 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
                          strategy=trial_strategies[i], release_offset_m=trial_release_offset_m(config, seeds[i])))
         out.append(log)
     if landscape and n:
-        out[0].update(familiarity_landscape(memory, world, points, headings))
+        out[0].update(familiarity_landscape(memory, world, points, headings, views=views))
     return rows, out

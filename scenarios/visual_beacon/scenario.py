@@ -27,7 +27,7 @@ Results, sources and model choices: README.md in this folder.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -48,18 +48,25 @@ from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_
 from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import forest, landmark, vision_appearance
+from neuronav.senses.compound_eye_vision import beacon_eye_image
 from neuronav.spec.world import Ground, World
 
 EYE_MODES = ("left", "right", "both")
 EYES = {"left": ("eye_L",), "right": ("eye_R",), "both": ("eye_L", "eye_R")}
 # Start headings (clockwise from +y; the landmark is at bearing 0): the paper's ranges.
 START_HEADINGS_RAD = {"left": (0.0, np.pi / 2), "right": (-np.pi / 2, 0.0), "both": (-np.pi / 4, np.pi / 4)}
+# What the compound eyes see of the black landmark, (green, UV): a matt black surface (ours: a few per cent
+# reflectance), darker than the vegetation's 0.12 / 0.04 (neuronav.spec.world.OBJECT_GREEN_UV).
+LANDMARK_GREEN_UV = (0.02, 0.02)
+EYE_KINDS = ("camera", "compound")
 
 
 @dataclass
 class VisualBeaconConfig:
     eye: str = field("cycle", "which eyes the brain reads: left, right, both, or cycle (trial seed mod 3)",
                      choices=("cycle", *EYE_MODES))
+    eyes: str = field("camera", "what the eyes are: camera (the binocular 74 x 19 cameras) or compound (the "
+                      "compound eyes' green channel on the cameras' grids)", choices=EYE_KINDS)
     landmark_distance_m: float = field(25.0, "the landmark's distance from the start (m)", min=5.0, max=100.0)
     trees: int = field(40, "trees around the scene (seeded by the trial)", min=0, max=500)
     dark_threshold: float = field(0.08, "grey level (0–1) at or below which a pixel is the landmark "
@@ -95,15 +102,18 @@ def beacon_world(config: VisualBeaconConfig, seed: int) -> World:
     clear = [(0.0, y, 0.45 * distance) for y in np.linspace(0.0, distance, 6)]
     trees = forest(config.trees, seed=seed, inner_radius_m=0.0, outer_radius_m=2.2 * distance,
                    centre_m=(0.0, distance / 2), clear=clear) if config.trees else ()
-    objects = (landmark((0.0, distance)), *trees)
+    objects = (replace(landmark((0.0, distance)), green_uv=LANDMARK_GREEN_UV), *trees)
     return World(ground=Ground(size_m=4.0 * distance), objects=objects, appearance=vision_appearance())
 
 
 class BeaconBrain:
     """Eyes → shift (eqs. 3.8–3.9) → copy-and-shift → CPU1 → (θ, S_l), once per gait cycle."""
 
-    def __init__(self, config: VisualBeaconConfig, mode: str, seed: int) -> None:
+    def __init__(self, config: VisualBeaconConfig, mode: str, seed: int, compound_eyes=()) -> None:
         self.config, self.mode = config, mode
+        # eyes=compound: each compound eye's green channel on its camera eye's grid (the detector unchanged).
+        self.adapters = {f"eye_{eye.name[-1]}": (eye.name, beacon_eye_image(eye, eye.name[-1]))
+                         for eye in compound_eyes} if config.eyes == "compound" else {}
         self.circuit = copy_and_shift().compile(batch=1, seeds=[seed])
         noisy = is_on(config)
         self.eye_noise = EyeNoise(seed, config.eye_pixel_noise_sd if noisy else 0.0)
@@ -113,12 +123,22 @@ class BeaconBrain:
                                                      "stride_rad")}
         self.first_view: dict[str, np.ndarray] = {}
 
+    def look(self, backend, eyes: tuple[str, ...], noise: bool = True) -> dict[str, np.ndarray]:
+        """The grey images (N, H, W) of ``eyes`` (``eye_L``, ``eye_R``): the cameras' renders, or the compound
+        eyes' reads (receptor noise on every ommatidium) laid out on the cameras' grids."""
+        add = self.eye_noise if noise else (lambda image: image)
+        if not self.adapters:
+            rendered = backend.read(eyes)
+            return {name: add(rendered[name]) for name in eyes}
+        sensed = backend.read(tuple(self.adapters[name][0] for name in eyes))
+        return {name: self.adapters[name][1](add(sensed[self.adapters[name][0]])) for name in eyes}
+
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         eyes = EYES[self.mode]
-        sensed = loop.backend.read(("heading", "position", *eyes))
-        images = {name: self.eye_noise(sensed[name]) for name in eyes}
+        sensed = loop.backend.read(("heading", "position"))
+        images = self.look(loop.backend, eyes)
         if not self.first_view:  # both eyes' first view, for the figure (the brain uses only its own)
-            start = loop.backend.read(("eye_L", "eye_R"))
+            start = self.look(loop.backend, ("eye_L", "eye_R"), noise=False)
             self.first_view = {name: image[0].copy() for name, image in start.items()}
         shift = beacon_shift(images.get("eye_L"), images.get("eye_R"), threshold=self.config.dark_threshold)
         heading = sensed["heading"]
@@ -142,8 +162,9 @@ def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video
                              0.0)[0][0]
         heading0 += float(np.arctan2(-start[0], config.landmark_distance_m - start[1]))
     world = beacon_world(config, seed)
-    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s)
-    brain = BeaconBrain(config, mode, seed)
+    compound = config.eyes == "compound"
+    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s, compound_eyes=compound)
+    brain = BeaconBrain(config, mode, seed, body.compound_eyes if compound else ())
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
     goal = np.array([0.0, config.landmark_distance_m])
 

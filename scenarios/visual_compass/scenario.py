@@ -45,7 +45,10 @@ from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import compass_scene
+from neuronav.senses.compound_eye_vision import compass_panorama
 from neuronav.spec.world import World
+
+EYE_KINDS = ("camera", "compound")
 
 
 @dataclass
@@ -59,6 +62,8 @@ class VisualCompassConfig:
                                    min=-0.5, max=0.5)
     jump_every_s: float = field(10.0, "jump: the world jumps to a new random angle this often (s)", min=1.28,
                                 max=3600.0)
+    eyes: str = field("camera", "what the eyes are: camera (the 72 x 72 panoramic camera) or compound (both "
+                      "compound eyes' UV channel laid out on the panorama's grid)", choices=EYE_KINDS)
     dead_band_deg: float = field(0.8, "no turn while the phase differs from the stored one by less (deg)",
                                  min=0.0, max=45.0)
     recovered_deg: float = field(10.0, "a jump is recovered once the heading error is within this (deg)",
@@ -102,8 +107,10 @@ class SceneRotation(Hook):
 class CompassBrain:
     """Panorama → Z_{7,1} phase → eq. 3.10, once per gait cycle; logs what the figure and metrics need."""
 
-    def __init__(self, config: VisualCompassConfig, rotation: SceneRotation, seed: int = 0) -> None:
+    def __init__(self, config: VisualCompassConfig, rotation: SceneRotation, seed: int = 0, compound_eyes=()) -> None:
         self.config, self.rotation = config, rotation
+        # eyes=compound: both eyes' UV (the sky bright, the objects dark) on the panoramic camera's grid.
+        self.adapter = compass_panorama(compound_eyes) if config.eyes == "compound" else None
         noisy = is_on(config)
         self.eye_noise = EyeNoise(seed, config.eye_pixel_noise_sd if noisy else 0.0)
         self.motor_noise = MotorNoise(seed, config.turn_noise_sd if noisy else 0.0,
@@ -114,8 +121,13 @@ class CompassBrain:
                                                      "stride_rad")}
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
-        sensed = loop.backend.read(("heading", "panorama"))
-        panorama = self.eye_noise(sensed["panorama"])
+        if self.adapter is None:
+            sensed = loop.backend.read(("heading", "panorama"))
+            panorama = self.eye_noise(sensed["panorama"])
+        else:  # receptor noise on every ommatidium, then the panorama's grid
+            names = tuple(eye.name for eye in self.adapter.eyes)
+            sensed = loop.backend.read(("heading", *names))
+            panorama = self.adapter(*(self.eye_noise(sensed[name]) for name in names))
         if self.basis is None:
             self.basis = ZernikeBasis(*panorama.shape[1:])
         phase = float(self.basis.compass_phase(panorama)[0])
@@ -138,9 +150,10 @@ def compass_trial(config: VisualCompassConfig, backend_name: str, seed: int, vid
         offset = jitter_start(trial_generators([seed], "start"), np.zeros((1, 2)), np.zeros(1),
                               config.start_position_sd_m, 0.0)[0][0]
         world = shifted(world, -offset)
-    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s)
+    compound = config.eyes == "compound"
+    engine, body, gait, physics_dt = make_engine(backend_name, config.timestep_s, compound_eyes=compound)
     rotation = SceneRotation(config, seed)
-    brain = CompassBrain(config, rotation, seed)
+    brain = CompassBrain(config, rotation, seed, body.compound_eyes if compound else ())
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
     loop, _, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
                                duration_s=config.duration_s, hooks=[rotation], video_path=video_path)

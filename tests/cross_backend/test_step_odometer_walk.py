@@ -1,7 +1,10 @@
 """The step odometer on the physics engines: the ant walks the FK tripod straight (stride 15°), one
 cycle of start-up and then ``CYCLES`` gait cycles (0.64 s each), while
 :class:`neuronav.bodies.step_odometer.StepOdometer` reads its joint angles and claw loads through
-the leg kinematics of the body it *believes* it has.
+the leg kinematics of the body it *believes* it has (its loads: ``contact_load``, as the scenarios read them).
+
+- ``contact_load`` is the load of the last physics step: on MuJoCo the norm of the forces the step solved
+  (``contact_force`` read before the step solves the same problem), on PyBullet the norm of ``contact_force``.
 
 - Normal legs, believed normal: the odometer reads close to the true distance (the root's horizontal
   displacement), within ``BAND`` of what each engine measured; it is not exact, because the FK tripod's
@@ -12,7 +15,7 @@ the leg kinematics of the body it *believes* it has.
   stilts longer, stumps shorter.
 
 Measured (this test's walk) with ``python benchmarks/step_odometer.py --manipulations --cycles 3``
-(odometer / true): MuJoCo normal 0.905, stilts 0.810; PyBullet normal 1.187, stilts 0.984.
+(odometer / true): MuJoCo normal 0.928, stilts 0.739; PyBullet normal 1.187, stilts 0.984.
 """
 
 from __future__ import annotations
@@ -30,7 +33,7 @@ from neuronav.spec.world import World
 BACKENDS = ["mujoco", "pybullet"]
 CYCLES = 3
 CYCLE_STEPS = 80
-MEASURED_RATIO = {"mujoco": 0.905, "pybullet": 1.187}  # odometer / true, normal legs
+MEASURED_RATIO = {"mujoco": 0.928, "pybullet": 1.187}  # odometer / true, normal legs
 BAND = 0.1
 
 
@@ -45,17 +48,80 @@ def walk(backend: str, body, believed) -> tuple[float, StepOdometer]:
         for k in range((CYCLES + 1) * CYCLE_STEPS):
             engine.write({"joint_targets": gait.step(0.0, np.radians(15.0))[None, :]})
             engine.step(4)
-            sensed = engine.read(("joint_pos", "contact_force", "body_pos"))
+            sensed = engine.read(("joint_pos", "contact_load", "body_pos"))
             if k == CYCLE_STEPS - 1:
                 start = sensed["body_pos"][0, :2].copy()
             if k >= CYCLE_STEPS - 1:
-                odometer.update(sensed["joint_pos"][0], sensed["contact_force"][0])
+                odometer.update(sensed["joint_pos"][0], sensed["contact_load"][0])
         return float(np.hypot(*(sensed["body_pos"][0, :2] - start))), odometer
 
 
 @pytest.fixture(scope="module")
 def normal():
     return desert_ant()
+
+
+def _step_forces_mujoco(engine) -> np.ndarray:
+    """Each contact site's total contact force as MuJoCo's last step solved it (mj_contactForce summed),
+    computed here by one more mj_step1/mj_step2 on the engine's own model and data."""
+    import mujoco
+
+    model, data = engine.model, engine.data
+    mujoco.mj_step2(model, data)  # the engine left its state after mj_step1: this is the next step's solve
+    forces, wrench = np.zeros((len(engine._contact_sites), 3)), np.zeros(6)
+    for i in range(data.ncon):
+        contact = data.contact[i]
+        site1, site2 = engine._site_of_geom[contact.geom1], engine._site_of_geom[contact.geom2]
+        if contact.efc_address < 0 or (site1 < 0 and site2 < 0):
+            continue
+        mujoco.mj_contactForce(model, data, i, wrench)
+        world = contact.frame.reshape(3, 3).T @ wrench[:3]
+        forces[site2] += world if site2 >= 0 else 0.0
+        forces[site1] -= world if site1 >= 0 else 0.0
+    mujoco.mj_step1(model, data)
+    return forces
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_contact_load_is_the_last_steps_contact_force(backend, normal):
+    # MuJoCo: the loads its contact sensors computed in the step equal the forces that step solved
+    # (mj_contactForce); PyBullet: its contact points are the last step's, so the load is contact_force's norm.
+    pytest.importorskip(backend, reason=f"{backend} is not installed")
+    with registry.load("backend", backend)(timestep_s=0.002) as engine:
+        engine.load(World(), [normal])
+        gait = make_gait("tripod", normal)
+        engine.reset(0)
+        loaded = 0
+        for _ in range(60):
+            engine.write({"joint_targets": gait.step(0.0, np.radians(15.0))[None, :]})
+            if backend == "mujoco":
+                expected = np.linalg.norm(_step_forces_mujoco(engine), axis=1)
+            else:
+                engine.step(1)
+                expected = np.linalg.norm(engine.read(("contact_force",))["contact_force"][0], axis=1)
+            load = engine.read(("contact_load",))["contact_load"][0]
+            np.testing.assert_allclose(load, expected, rtol=1e-9, atol=1e-9)
+            loaded += int((expected > 1.0).sum())
+        assert loaded > 100  # the legs were loaded: the comparison was not between zeros
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_a_sampler_reads_what_read_reads(backend, normal):
+    from neuronav.errors import PortError
+
+    pytest.importorskip(backend, reason=f"{backend} is not installed")
+    with registry.load("backend", backend)(timestep_s=0.002) as engine:
+        engine.load(World(), [normal])
+        engine.reset(0)
+        engine.step(30)
+        for names in (("joint_pos", "contact_load"), ("heading", "contact_force", "joint_vel")):
+            sample = engine.sampler(names)
+            engine.step(3)
+            sensed = engine.read(names)
+            np.testing.assert_array_equal(sample(), np.concatenate([sensed[n][0].ravel() for n in names]))
+            assert sample() is not sample()  # each call its own array: a buffer of samples stays intact
+        with pytest.raises(PortError, match="no sensor 'legs'"):
+            engine.sampler(("joint_pos", "legs"))
 
 
 @pytest.mark.parametrize("backend", BACKENDS)

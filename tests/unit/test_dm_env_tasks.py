@@ -157,7 +157,7 @@ def test_composer_ant_walks_like_the_dm_control_backend():
     np.testing.assert_allclose(composer_state.observation["heading"], heading, atol=2e-4)
 
 
-@pytest.mark.parametrize("action", [[0.0, 1.0], [2.0, 0.1], [0.0], [np.nan, 0.1], "fast"])
+@pytest.mark.parametrize("action", [[0.0], [np.nan, 0.1], "fast", {"turn": 0.0}, [1j, 0.1]])
 def test_bad_action_is_a_port_error_naming_the_bounds(action):
     env = load("homing", random_state=0)
     try:
@@ -171,3 +171,23 @@ def test_bad_action_is_a_port_error_naming_the_bounds(action):
 def test_bad_time_limit_is_a_config_error():
     with pytest.raises(ConfigError, match="time_limit_s must be a positive number"):
         load("homing", time_limit_s=-1.0)
+
+
+def test_out_of_bounds_actions_are_clipped_as_in_gymnasium():
+    """One action rule for dm_env and Gymnasium: a finite action outside the bounds acts as the bound."""
+    low, high = action_bounds()
+    observations = []
+    for action in (np.array([2.0, 1.0]), high):
+        env = load("homing", random_state=4)
+        try:
+            env.reset()
+            observations.append(env.step(action).observation["home_vector"])
+        finally:
+            env.close()
+    np.testing.assert_array_equal(observations[0], observations[1])
+
+
+@pytest.mark.parametrize("seed", [None, "x", -5, 1.5])
+def test_world_seed_must_be_a_non_negative_int_as_in_gymnasium(seed):
+    with pytest.raises(ConfigError, match="world_seed must be an int >= 0"):
+        load("beacon", world_seed=seed)

@@ -18,7 +18,7 @@ from neuronav.scenarios.envs.tasks import make_task
 
 IDS = sorted(env_id for env_id in gymnasium.registry if env_id.startswith("neuronav/"))
 INSTALLED = [name for name in registry.names("backend") if registry.availability("backend", name)[0]]
-# What the checker may warn about: observations with no bound (heading, velocity, wind, home vector), and
+# What the checker may warn about: observations with no bound (velocity_body, wind, home vector), and
 # joint targets in rad within each joint's range rather than normalised to [-1, 1].
 ALLOWED_WARNINGS = ("minimum value is -infinity", "maximum value is infinity",
                     "we recommend using a symmetric and normalized space")
@@ -50,7 +50,7 @@ def test_make_with_the_module_prefix_needs_no_import():
             "print(sorted(env.reset(seed=0)[0]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "['heading', 'home_vector', 'velocity']"
+    assert out.stdout.strip() == "['heading', 'home_vector', 'velocity_body']"
 
 
 @pytest.mark.parametrize(("env_id", "backend", "mode"), list(cases()))
@@ -169,14 +169,14 @@ def test_the_time_limit_truncates():
 def test_spaces_come_from_the_ports():
     env = NeuronavEnv("beacon", backend="kinematic")
     eye = env.observation_space["eye_L"]
-    assert eye.shape == (19, 74) and eye.low.min() == 0.0 and eye.high.max() == 1.0
+    assert eye.shape == (19, 74, 1) and eye.dtype == np.uint8 and eye.low.min() == 0 and eye.high.max() == 255
     assert env.action_space.low.tolist() == [-1.0, 0.0]
     assert env.action_space.high[1] == pytest.approx(np.radians(25.0))
     plume = NeuronavEnv("plume", backend="kinematic")
     assert plume.observation_space["odour"].shape == (2, 1) and plume.observation_space["odour"].low.min() == 0.0
     assert plume.observation_space["wind"].shape == (2, 2)
     homing = NeuronavEnv("homing", backend="kinematic")
-    assert set(homing.observation_space) == {"heading", "velocity", "home_vector"}
+    assert set(homing.observation_space) == {"heading", "velocity_body", "home_vector"}
 
 
 @pytest.mark.skipif("mujoco" not in INSTALLED, reason="mujoco is not installed")
@@ -202,6 +202,8 @@ def test_bad_arguments_are_one_clear_error():
         NeuronavEnv("homing", backend="kinematic", action_mode="joints")
     with pytest.raises(ConfigError, match="action_mode must be one of locomotion, joints"):
         NeuronavEnv("homing", action_mode="torques")
+    with pytest.raises(ConfigError, match="home_vector='cx' .* needs action_mode='locomotion'"):
+        NeuronavEnv("homing", backend="mujoco", action_mode="joints", home_vector="cx")
     with pytest.raises(RegistryError, match="unknown backend 'bullet'"):
         NeuronavEnv("homing", backend="bullet")
     with pytest.raises(ConfigError, match="unknown key 'radius'"):
@@ -212,7 +214,7 @@ def test_bad_arguments_are_one_clear_error():
     with pytest.raises(gymnasium.error.ResetNeeded):
         env.step(np.zeros(2, dtype=np.float32))
     env.reset(seed=0)
-    with pytest.raises(PortError, match="action must be 2 finite numbers"):
+    with pytest.raises(PortError, match="action must be 2 finite real numbers"):
         env.step(np.array([np.nan, 0.1]))
 
 

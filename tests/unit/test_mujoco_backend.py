@@ -82,7 +82,8 @@ def test_load_step_read_shapes_and_capabilities():
     backend.load(World(), [small_body()])
     sensors = {s.name: s.shape for s in backend.capabilities.sensors}
     assert sensors == {"joint_pos": (4,), "joint_vel": (4,), "joint_torque": (4,), "contact_force": (2, 3),
-                       "body_pos": (3,), "body_quat": (4,), "body_linvel": (3,), "body_angvel": (3,),
+                       "contact_load": (2,), "body_pos": (3,), "body_quat": (4,), "body_linvel": (3,),
+                       "body_angvel": (3,),
                        "heading": (1,), "velocity": (2,), "position": (2,), "head_pos": (3,), "head_quat": (4,),
                        "odour_sites": (2, 3),
                        "wind_sites": (1, 3), "odour": (2, 1), "wind": (1, 2), "eye": (16, 64), "pano": (24, 48)}

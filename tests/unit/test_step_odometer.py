@@ -222,6 +222,39 @@ def test_bad_shapes_are_config_errors(ant):
         StepOdometer("desert_ant")
 
 
+def test_loads_and_forces_read_the_same(ant):
+    steps, _ = tripod_walk(ant, 0.004, 20, 2)
+    by_force, by_load = StepOdometer(ant), StepOdometer(ant)
+    for joints, force in steps:
+        np.testing.assert_array_equal(by_force.update(joints, force),
+                                      by_load.update(joints, np.linalg.norm(force, axis=1)))
+    assert by_force.distance_m == by_load.distance_m > 0.0
+
+
+def test_update_many_is_update_one_sample_at_a_time(ant):
+    # A walk that turns and shifts with the stance sets changing (one leg unloading mid stance too), split
+    # into uneven batches: the same displacements, pose, strides and distance as one update per sample.
+    steps, _ = tripod_walk(ant, 0.004, 20, 4)
+    rng = np.random.default_rng(5)
+    joints = np.array([j for j, _ in steps]) + rng.normal(0.0, 0.01, (len(steps), len(ant.joint_names)))
+    loads = np.array([np.linalg.norm(f, axis=1) for _, f in steps])
+    loads[rng.random(loads.shape) < 0.1] = 0.0
+    one, many = StepOdometer(ant), StepOdometer(ant)
+    expected = np.array([one.update(j, f) for j, f in zip(joints, loads)])
+    cuts = [0, 1, 7, 40, 41, 90, len(steps)]
+    got = np.concatenate([many.update_many(joints[a:b], loads[a:b]) for a, b in zip(cuts[:-1], cuts[1:])])
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    assert many.yaw_rad == pytest.approx(one.yaw_rad, abs=1e-12) and one.yaw_rad != 0.0
+    np.testing.assert_allclose(many.position_m, one.position_m, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(many.stride_lengths_m, one.stride_lengths_m, rtol=0, atol=1e-12)
+    assert len(one.stride_lengths_m) >= 2
+    np.testing.assert_array_equal(many.stance, one.stance)
+    with pytest.raises(ConfigError, match="one row per joint_pos row"):
+        many.update_many(joints[:3], loads[:2])
+    with pytest.raises(ConfigError, match="joint_pos"):
+        many.update_many(joints[0], loads[:1])
+
+
 # -- the unicycle ---------------------------------------------------------------------------------------
 def test_unicycle_stride_is_the_calibrated_speed_times_the_cycle():
     calibration = unicycle_calibration()
@@ -260,7 +293,8 @@ class _Replay:
     def read(self, names):
         self.reads.append(self.control_steps)
         joints, force = self.steps[self.control_steps]
-        return {"joint_pos": joints[None, :], "contact_force": force[None]}
+        assert tuple(names) == ("joint_pos", "contact_load"), names
+        return {"joint_pos": joints[None, :], "contact_load": np.linalg.norm(force, axis=1)[None]}
 
 
 @pytest.mark.parametrize("every", [1, 4])
