@@ -26,7 +26,11 @@ and the steering then come from one CX); with the oracle vector they attach one 
 cycle, the CX's period): the joints mode would feed the CX 80 times per cycle, and is refused.
 :func:`brain_homing_env` builds the environment with both wrappers.
 
-The mushroom body's novelty is not offered: the homing floor is bare, with no view to learn.
+The mushroom body's novelty (:class:`MBNoveltyObservation`) needs views to learn: it wraps a task the agent
+sees in, made with ``panorama=True`` (the beacon's forest; the homing floor is bare, every view alike). It
+adds ``mb_novelty`` (1,) in [0, 1], the MBON's output over the active KCs (1: no active KC silenced, the view
+never seen), for a mushroom body (:func:`neuronav.brains.mushroom_body.mushroom_body`, Ardin's 324-PN panorama
+code) that learns the views of each episode's first ``learn_steps`` observations, a learning walk.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ import gymnasium
 import numpy as np
 from gymnasium import spaces
 
+from neuronav.brains.mushroom_body import N_KC, PANORAMA_COLUMNS, PANORAMA_ROWS, mushroom_body, panorama_code
 from neuronav.errors import ConfigError, PortError
 from neuronav.scenarios.envs.path_integrator import HOME_VECTORS, POPULATIONS, CXPathIntegrator
 from neuronav.scenarios.envs.tasks import read_state
@@ -135,3 +140,97 @@ def brain_homing_env(home_vector: str = "cx", populations: bool = True, residual
     if residual:
         env = CXResidualControl(env)
     return env
+
+
+def _count(where: str, label: str, value: Any, lowest: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lowest:
+        raise ConfigError(f"{where}: {label} must be an int >= {lowest}, got {value!r}")
+    return int(value)
+
+
+class MBNoveltyObservation(gymnasium.ObservationWrapper, gymnasium.utils.RecordConstructorArgs):
+    """A seeing environment (``panorama=True``) with the mushroom body's novelty of the current view added to its
+    observation ``Dict`` as ``mb_novelty`` (1,) float32 in [0, 1].
+
+    The protocol, a learning walk: at every ``reset`` the mushroom body forgets (every KC->MBON weight back
+    to 1); the views of the episode's first ``learn_steps`` observations (the reset's included) are learnt,
+    after that it only reports. Each observation's novelty is judged *before* its view is learnt: the
+    MBON's output (active KCs whose weights are intact, :mod:`neuronav.brains.mushroom_body`) divided by
+    the number of active KCs, so 1 is a view no part of which was learnt and 0 a view seen before; a view
+    that drives no KC (a uniform panorama) reports 1. With ``learning_rate`` 1 one presentation silences
+    a view's KCs: along the walk novelty falls where views repeat, and afterwards a view off the walk
+    (another place, or the same place facing another way: the panorama code turns with the ant) is novel.
+
+    The view is the environment's raw grey panorama (float, 72 x 72, the reading its observation's uint8
+    ``panorama`` is rounded from), coded by :func:`~neuronav.brains.mushroom_body.panorama_code` (9 x 36
+    blocks of 10 deg, z-scored: 324 PNs).
+
+    Parameters
+    ----------
+    env : gymnasium.Env
+        A neuronav environment whose observation ``Dict`` has ``panorama`` (``gymnasium.make(...,
+        panorama=True)``), e.g. ``neuronav/AntBeacon-v0``.
+    learn_steps : int
+        Observations learnt at the start of each episode (>= 0; 0: the memory stays empty, novelty 1 when
+        any KC fires).
+    n_kc : int
+        Kenyon cells (Sun et al. 2020's 4000 by default).
+    seed : int
+        Seeds the KC wiring (the same seed, the same mushroom body).
+
+    Raises
+    ------
+    ConfigError
+        An environment without the panorama observation, one that already observes ``mb_novelty``, or a
+        setting out of range.
+    """
+
+    name = "mb_novelty"
+
+    def __init__(self, env: gymnasium.Env, learn_steps: int = 10, n_kc: int = N_KC, seed: int = 0) -> None:
+        gymnasium.utils.RecordConstructorArgs.__init__(self, learn_steps=learn_steps, n_kc=n_kc, seed=seed)
+        super().__init__(env)
+        where = "MBNoveltyObservation"
+        space = env.observation_space
+        if not isinstance(space, spaces.Dict) or "panorama" not in space.spaces:
+            raise ConfigError(f"{where} needs the panorama observation: make the environment with panorama=True "
+                              f"(e.g. gymnasium.make('neuronav/AntBeacon-v0', panorama=True)); got {space}")
+        if self.name in space.spaces:
+            raise ConfigError(f"{where}: the observation already has {self.name}")
+        self.learn_steps = _count(where, "learn_steps", learn_steps, 0)
+        self.circuit = mushroom_body(n_pn=PANORAMA_ROWS * PANORAMA_COLUMNS, n_kc=_count(where, "n_kc", n_kc, 1),
+                                     seed=_count(where, "seed", seed, 0))
+        self.mb = self.circuit.compile(batch=1)
+        self.views_seen = 0
+        self.observation_space = spaces.Dict({**space.spaces, self.name: spaces.Box(0.0, 1.0, (1,), np.float32)})
+
+    def reset(self, **kwargs: Any):
+        self.forget()
+        return super().reset(**kwargs)
+
+    def forget(self) -> None:
+        """Empty the memory (every KC->MBON weight 1) and start the learning walk again."""
+        self.mb.set_weights("KC->MBON", np.ones_like(self.mb.weights("KC->MBON")))
+        self.views_seen = 0
+
+    def panorama(self) -> np.ndarray:
+        """The raw grey panorama (H, W) in [0, 1] the environment read at its last reset or step."""
+        state = getattr(self.env.unwrapped, "_state", None)
+        if state is None or "panorama" not in state:
+            raise gymnasium.error.ResetNeeded("call reset() before reading the panorama")
+        return np.asarray(state["panorama"], float)
+
+    def _judge(self, panorama: np.ndarray, learn: bool) -> float:
+        out = self.mb.step({"pn": panorama_code(panorama), "learning": np.full((1, 1), float(learn))})
+        active = float(self.mb.rates("KC")[0].sum())
+        return float(np.clip(out["novelty"][0, 0] / active, 0.0, 1.0)) if active > 0 else 1.0
+
+    def novelty(self, panorama) -> float:
+        """The novelty in [0, 1] of a raw grey panorama (H, W) for the memory as it is now (nothing learnt)."""
+        return self._judge(np.asarray(panorama, float), learn=False)
+
+    def observation(self, observation: dict) -> dict:
+        learn = self.views_seen < self.learn_steps
+        value = self._judge(self.panorama(), learn)
+        self.views_seen += 1
+        return {**observation, self.name: np.array([value], np.float32)}

@@ -134,7 +134,9 @@ class NeuronavEnv(gymnasium.Env):
         self.world_seed = check_world_seed(world_seed)
         self.backend_name, self.action_mode, self.render_mode = backend, action_mode, render_mode
         self.fall_tilt_deg = fall_tilt_deg
-        self.engine, self.body, self.gait, physics_dt_s = make_engine(backend, self.task.physics_timestep_s)
+        # compound_eyes=True: the ant (or the unicycle) carries its two compound eyes (1287 ommatidia each).
+        self.engine, self.body, self.gait, physics_dt_s = make_engine(backend, self.task.physics_timestep_s,
+                                                                      compound_eyes=bool(compound_eyes))
         self.engine.load(self.task.world(self.world_seed), [self.body])
         self.physics = backend != "kinematic"
         self.clocks = Clocks(physics_dt_s=physics_dt_s, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)

@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env
 
 from neuronav.brains.cx import decode_home_vector
 from neuronav.errors import ConfigError, PortError
-from neuronav.scenarios.envs.brain_loop import CXObservation, CXResidualControl, brain_homing_env
+from neuronav.scenarios.envs.brain_loop import CXObservation, CXResidualControl, MBNoveltyObservation, brain_homing_env
 from neuronav.scenarios.envs.path_integrator import (
     CX_METRES_PER_UNIT,
     CXPathIntegrator,
@@ -230,3 +230,78 @@ def test_the_example_trains_with_ppo_when_stable_baselines3_is_installed(example
     assert facts["algo"] == "ppo" and [row["steps"] for row in rows] == [0, 32, 64]
     assert all(np.isfinite(row["return_m"]) and 0.0 <= row["success"] <= 1.0 for row in rows)
     example.write_curves(rows, facts, tmp_path)
+
+
+def seeing_env(learn_steps: int = 1, **settings) -> MBNoveltyObservation:
+    return MBNoveltyObservation(gymnasium.make("neuronav/AntBeacon-v0", panorama=True, **settings),
+                                learn_steps=learn_steps)
+
+
+def test_the_mb_novelty_of_a_learnt_view_is_low_and_of_the_view_turned_round_high():
+    """Learning the start view (learn_steps=1): that view's novelty is 0, the same place faced the other way
+    (the ant turned 180°, read by the environment) 0.55-0.70 on seeds 0-4, a fresh memory 1."""
+    env = seeing_env(learn_steps=1)
+    plain = gymnasium.make("neuronav/AntBeacon-v0", panorama=True)
+    for seed in range(5):
+        observation, _ = env.reset(seed=seed)
+        assert observation["mb_novelty"].dtype == np.float32 and observation["mb_novelty"][0] == 1.0
+        state = env.unwrapped._state
+        view = env.panorama()
+        plain.reset(seed=seed, options={"position_m": state["position"], "heading_rad": float(state["heading"][0])
+                                        + np.pi})
+        turned = plain.unwrapped._state["panorama"]
+        assert env.novelty(view) == 0.0
+        assert 0.5 < env.novelty(turned) < 0.75
+        # Only the walk's first view was learnt: a step on, the next view is judged, not learnt.
+        observation = env.step(np.array([0.0, 0.3], np.float32))[0]
+        step_view = env.panorama()
+        assert 0.0 < observation["mb_novelty"][0] < 0.5  # a few cm from a learnt view, facing the same way
+        assert env.novelty(step_view) == pytest.approx(observation["mb_novelty"][0], abs=1e-6)
+    env.reset(seed=0)
+    assert env.novelty(view) > 0.0  # reset forgets: seed 1's start view is no longer familiar
+    env.close()
+    plain.close()
+
+
+def test_the_learning_walk_learns_the_first_views_then_only_reports():
+    env = seeing_env(learn_steps=3)
+    observation, _ = env.reset(seed=3)
+    views, novelties = [env.panorama()], [observation["mb_novelty"][0]]
+    for _ in range(4):
+        observation = env.step(np.array([0.2, 0.3], np.float32))[0]
+        views.append(env.panorama())
+        novelties.append(observation["mb_novelty"][0])
+        assert env.observation_space.contains(observation)
+    assert novelties[0] == 1.0 and all(0.0 < value < 1.0 for value in novelties[1:])
+    assert [env.novelty(view) for view in views[:3]] == [0.0, 0.0, 0.0]  # the walk's three views: familiar
+    assert [env.novelty(view) for view in views[3:]] == pytest.approx(novelties[3:], abs=1e-6)  # judged only
+    env.close()
+
+
+def test_check_env_passes_on_the_mb_wrapped_environment_and_its_space_is_the_unit_box():
+    env = seeing_env(learn_steps=2)
+    box = env.observation_space["mb_novelty"]
+    assert box.shape == (1,) and box.dtype == np.float32 and (box.low, box.high) == (0.0, 1.0)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    ours = [str(w.message) for w in caught
+            if not any(k in str(w.message) for k in ("different from the unwrapped", "infinity"))]
+    assert ours == []
+    env.close()
+
+
+def test_bad_mb_settings_are_refused_with_clear_errors():
+    with pytest.raises(ConfigError, match="panorama=True"):
+        MBNoveltyObservation(gymnasium.make("neuronav/AntBeacon-v0"))
+    env = seeing_env()
+    for bad in ({"learn_steps": -1}, {"learn_steps": 1.5}, {"learn_steps": True}, {"n_kc": 0}, {"seed": -2}):
+        with pytest.raises(ConfigError, match=f"MBNoveltyObservation: {next(iter(bad))} must be an int"):
+            MBNoveltyObservation(env.env, **bad)
+    with pytest.raises(ConfigError, match="already has mb_novelty"):
+        MBNoveltyObservation(env)
+    with pytest.raises(gymnasium.error.ResetNeeded):
+        env.panorama()
+    with pytest.raises(ConfigError, match="panorama_code"):
+        env.novelty(np.zeros((5, 7)))
+    env.close()

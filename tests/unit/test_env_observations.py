@@ -138,7 +138,15 @@ def test_compound_eyes_are_an_option_when_the_body_has_them():
     env = NeuronavEnv("beacon", backend="kinematic", trees=0)
     sensors = {s.name: s for s in env.engine.capabilities.sensors}
     with pytest.raises(ConfigError, match="compound_eyes=True: this backend's body carries no compound eyes"):
-        NeuronavEnv("beacon", backend="kinematic", trees=0, compound_eyes=True)
+        observation_space(task, sensors, compound_eyes=True)  # a body without them
+    # With compound_eyes=True the env's ant (here the unicycle) carries its two eyes, observed as (M, 2) in [0, 1].
+    seeing = NeuronavEnv("beacon", backend="kinematic", trees=0, compound_eyes=True)
+    observation, _ = seeing.reset(seed=1)
+    for side in ("L", "R"):
+        eye = observation[f"compound_eye_{side}"]
+        assert eye.shape == (1287, 2) and seeing.observation_space[f"compound_eye_{side}"].contains(eye)
+    assert observation["compound_eye_L"][:, 1].max() > 0.4  # UV: the bright sky is seen
+    seeing.close()
     sensors["compound_eye_L"] = SensorSpec("compound_eye_L", (5, 2), "green, UV [0, 1]")
     space = observation_space(task, sensors, compound_eyes=True)
     box = space["compound_eye_L"]
