@@ -234,9 +234,10 @@ def proportion_points(ax, groups, *, positions=None, colours=None, width: float 
         ax.plot(position + strip_offsets(outcomes.size, width, seed), outcomes, "o", color=colour, alpha=0.5,
                 ms=5, mec="none", zorder=2, gid=f"{gid} {name}")
         block = success_rate(int(outcomes.sum()), int(outcomes.size))
-        low, high = block["ci"]
+        low, high = block["ci"]  # Wilson's bound at 0 of n can sit 1e-17 past the rate: no negative bar
         rate = block["rate"]
-        bars = ax.errorbar(position + 0.85 * width, rate, yerr=np.nan_to_num([[rate - low], [high - rate]]),
+        error = np.clip(np.nan_to_num([[rate - low], [high - rate]]), 0.0, None)
+        bars = ax.errorbar(position + 0.85 * width, rate, yerr=error,
                            fmt="s", color="k", ms=5, capsize=3, zorder=3,
                            label="proportion, Wilson 95 % CI" if legend and k == 0 else None)
         bars.lines[0].set_gid(f"{gid} {name} rate")

@@ -31,7 +31,8 @@ def _modes(result) -> list[str]:
 
 def trajectories_figure(result, config):
     """Top view: the trail (rasterised concentration) and every trial's path coloured by its antennae, each
-    trial's start (its first recorded position: starts are jittered) as an open triangle."""
+    trial's start (its first recorded position: starts are jittered) as an open triangle; the legend
+    outside the axes, so that it covers none of them."""
     from neuronav.scenarios.odour_trail.scenario import end_line_m, make_trail
 
     trail = make_trail(config.width, config.edge_m)
@@ -57,7 +58,8 @@ def trajectories_figure(result, config):
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.set_title(f"odour trail ({config.width}, {trail.width_m:g} m): paths by antennae")
-    ax.legend(loc="lower right")
+    # Outside the axes, to the right: inside, it covered the trail's start (issue 26).
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, fontsize=8)
     return fig
 
 

@@ -13,6 +13,7 @@ from neuronav.runs.plotting import condition_strip, new_figure, proportion_point
 
 ARENA_X_M, ARENA_Y_M = (0.0, 8.0), (-2.0, 2.0)
 ODOUR_COLOURS = {"on": "tab:green", "off": "tab:grey"}
+MAX_PLUME_PANELS = 4  # trials drawn over their own plume in plume_paths.png
 
 
 def _odour(trial: dict, config) -> str:
@@ -21,38 +22,82 @@ def _odour(trial: dict, config) -> str:
 
 
 def write_plume_figures(result, config, out_dir: Path) -> list[Path]:
-    """plume_paths.png (Fig. 6e–f), trial0_senses.png (Fig. 6g), time_to_source.png."""
+    """plume_paths.png (Fig. 6e–f: the first trials, each over its own plume), trial0_senses.png (Fig. 6g),
+    time_to_source.png."""
     out_dir = Path(out_dir)
-    return [save(plume_paths_figure(result, config), out_dir / "plume_paths.png"),
+    return [save(plume_paths_figure(result, config), out_dir / "plume_paths.png", tight=False),
             save(senses_figure(result, config), out_dir / "trial0_senses.png"),
             save(times_figure(result, config), out_dir / "time_to_source.png")]
 
 
-def plume_paths_figure(result, config):
-    """Trial 0's plume at its end (log concentration, the live puffs as dots) under every trial's path
-    (green: reached the source, grey: not; dashed: odour off)."""
+def plume_paths_figure(result, config, max_panels: int = MAX_PLUME_PANELS):
+    """Each of the first recorded trials (up to ``max_panels``) in its own panel, its path over its own plume
+    at its end (log concentration, the live puffs as dots), since every trial meets a plume of its own; when
+    the run has more trials, a last panel with every trial's path and no plume (green: reached the source,
+    grey: not; dashed: odour off)."""
     from matplotlib.colors import LogNorm
+
+    ts = result.timeseries
+    recorded = min(len(result.trials), len(ts["plume_raster"]), len(ts["puffs_m"]), max(int(max_panels), 1))
+    overview = len(result.trials) > recorded
+    panels = recorded + overview
+    ncols = 1 if panels == 1 else 2
+    nrows = -(-panels // ncols)
+    fig, axes = new_figure((6.5 * ncols + 1.2, 3.3 * nrows + 0.6), nrows, ncols, squeeze=False)
+    fig.set_layout_engine("constrained")
+    axes = list(axes.ravel())
+    for ax in axes[panels:]:
+        ax.set_visible(False)
+    rasters = [np.asarray(ts["plume_raster"][i], float) for i in range(recorded)]
+    positive = np.concatenate([r[r > config.threshold] for r in rasters] + [np.empty(0)])
+    norm = LogNorm(vmin=config.threshold, vmax=max(float(positive.max()), config.threshold * 10)) \
+        if positive.size else None
+    image = None
+    for i in range(recorded):
+        ax = axes[i]
+        raster = rasters[i]
+        if norm is not None and np.any(raster > config.threshold):
+            image = ax.imshow(np.where(raster > config.threshold, raster, np.nan), extent=(*ARENA_X_M, *ARENA_Y_M),
+                              origin="upper", cmap="magma_r", norm=norm, gid=f"plume {i}", interpolation="nearest")
+        puffs = np.asarray(ts["puffs_m"][i], float)
+        puffs = puffs[np.isfinite(puffs[:, 0])]
+        ax.plot(puffs[:, 0], puffs[:, 1], ".", color="tab:purple", ms=1.5, alpha=0.5, gid=f"puffs {i}")
+        _trial_path(ax, result, config, i, lw=1.6)
+        trial = result.trials[i]
+        outcome = f"reached the source at {trial['time_to_source_s']:.1f} s" if trial["success"] else "did not arrive"
+        ax.set_title(f"trial {i} (odour {_odour(trial, config)}) over its own plume: {outcome}", fontsize=9)
+    if overview:
+        ax = axes[recorded]
+        for i in range(len(result.trials)):
+            _trial_path(ax, result, config, i, lw=0.9)
+        reached = sum(bool(t["success"]) for t in result.trials)
+        ax.set_title(f"all {len(result.trials)} trials' paths, {reached} reached the source (green); "
+                     "no plume: each trial had its own", fontsize=9)
+    positions = np.asarray(ts["position_m"], float)
+    for ax in axes[:panels]:
+        _arena(ax, config, positions)
+    if image is not None:
+        fig.colorbar(image, ax=axes[:panels], label="odour (amount/m³), each trial at its end", shrink=0.8)
+    fig.suptitle(f"plume tracking (odour {config.odour}): "
+                 f"{sum(bool(t['success']) for t in result.trials)}/{len(result.trials)} reached the source")
+    return fig
+
+
+def _trial_path(ax, result, config, i: int, lw: float) -> None:
+    """Trial ``i``'s path (green: reached the source, grey: not; dashed: odour off) and its start (triangle)."""
+    trial = result.trials[i]
+    path = np.asarray(result.timeseries["position_m"][i], float)
+    path = path[np.isfinite(path[:, 0])]
+    colour = "tab:green" if trial["success"] else "tab:grey"
+    ax.plot(path[:, 0], path[:, 1], color=colour, lw=lw, ls="--" if _odour(trial, config) == "off" else "-",
+            gid=f"trial {i}")
+    ax.plot(path[:1, 0], path[:1, 1], "^", color=colour, ms=5, gid=f"start {i}")
+
+
+def _arena(ax, config, positions: np.ndarray) -> None:
+    """The source with its success radius, the wind's arrow, limits holding the arena and every path, labels."""
     from matplotlib.patches import Circle
 
-    fig, ax = new_figure((9, 5))
-    raster = np.asarray(result.timeseries["plume_raster"][0], float)
-    shown = np.where(raster > config.threshold, raster, np.nan)
-    positive = raster[raster > config.threshold]
-    if positive.size:
-        image = ax.imshow(shown, extent=(*ARENA_X_M, *ARENA_Y_M), origin="upper", cmap="magma_r",
-                          norm=LogNorm(vmin=config.threshold, vmax=max(float(positive.max()), config.threshold * 10)),
-                          gid="plume", interpolation="nearest")
-        fig.colorbar(image, ax=ax, label="odour (amount/m³), trial 0 at its end", shrink=0.8)
-    puffs = result.timeseries["puffs_m"][0]
-    puffs = puffs[np.isfinite(puffs[:, 0])]
-    ax.plot(puffs[:, 0], puffs[:, 1], ".", color="tab:purple", ms=1.5, alpha=0.5, gid="puffs")
-    for i, trial in enumerate(result.trials):
-        path = result.timeseries["position_m"][i]
-        path = path[np.isfinite(path[:, 0])]
-        colour = "tab:green" if trial["success"] else "tab:grey"
-        ax.plot(path[:, 0], path[:, 1], color=colour, lw=1.6 if i == 0 else 0.9, alpha=1.0 if i == 0 else 0.7,
-                ls="--" if _odour(trial, config) == "off" else "-", gid=f"trial {i}")
-        ax.plot(path[0, 0], path[0, 1], "^", color=colour, ms=5)
     ax.add_patch(Circle((config.source_x_m, 0.0), config.success_radius_m, fill=False, ls="--", color="k",
                         gid="source radius"))
     ax.plot(config.source_x_m, 0.0, "k*", ms=12, label="source")
@@ -61,17 +106,13 @@ def plume_paths_figure(result, config):
     ax.annotate("", xy=tuple(tail + np.array([np.cos(direction), np.sin(direction)])), xytext=tuple(tail),
                 arrowprops=dict(arrowstyle="->", lw=1.5))
     ax.text(7.1, 1.85, f"wind {config.wind_mps:g} m/s", ha="center", fontsize=8)
-    ax.set_xlim(min(ARENA_X_M[0], np.nanmin(result.timeseries["position_m"][..., 0]) - 0.3),
-                max(ARENA_X_M[1], np.nanmax(result.timeseries["position_m"][..., 0]) + 0.3))
-    ax.set_ylim(min(ARENA_Y_M[0], np.nanmin(result.timeseries["position_m"][..., 1]) - 0.3),
-                max(ARENA_Y_M[1], np.nanmax(result.timeseries["position_m"][..., 1]) + 0.3))
+    ax.set_xlim(min(ARENA_X_M[0], np.nanmin(positions[..., 0]) - 0.3),
+                max(ARENA_X_M[1], np.nanmax(positions[..., 0]) + 0.3))
+    ax.set_ylim(min(ARENA_Y_M[0], np.nanmin(positions[..., 1]) - 0.3),
+                max(ARENA_Y_M[1], np.nanmax(positions[..., 1]) + 0.3))
     ax.set_aspect("equal")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
-    reached = sum(bool(t["success"]) for t in result.trials)
-    ax.set_title(f"plume tracking (odour {config.odour}): {reached}/{len(result.trials)} reached the source "
-                 f"(green), trial 0 bold")
-    return fig
 
 
 def senses_figure(result, config):

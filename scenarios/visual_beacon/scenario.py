@@ -19,8 +19,8 @@ Trials differ (``variability=on``): start jitter, eye pixel and motor noise, eac
 
 Metrics per trial: ``success`` (within ``success_radius_m`` of the landmark), ``time_to_landmark_s``,
 ``closest_distance_m``, the signed ``lateral_offset_m`` (largest) and ``mean_lateral_offset_m`` from the
-start–landmark line (+ = left), ``path_ratio``; per eye mode the median time, success and offset;
-statistics: each monocular mode against both eyes (``eye_mode`` 0 left, 1 right, 2 both).
+start–landmark line (+ = left), ``path_ratio``; per eye mode the median time, success and the mean of each
+trial's peak offset; statistics: each monocular mode against both eyes (``eye_mode`` 0 left, 1 right, 2 both).
 
 Results, sources and model choices: README.md in this folder.
 """
@@ -242,7 +242,8 @@ class VisualBeacon(Scenario):
 
     def aggregate(self, trials: list[dict], config: VisualBeaconConfig) -> dict:
         """Per eye mode (among the finished trials): the median time to the landmark of those that
-        reached it, the fraction that did, and the mean signed lateral offset (+ = left)."""
+        reached it, the fraction that did, and ``lateral_offset_{mode}_m``: the mean of each trial's peak
+        signed lateral offset (its ``lateral_offset_m``, the largest; + = left), not a mean over the path."""
         return per_condition(trials, "eye_mode", {
             "median_time_{}_s": finite_median_of("time_to_landmark_s"), "success_{}": success_rate,
             "lateral_offset_{}_m": mean_of("lateral_offset_m"),

@@ -9,20 +9,59 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import break_at_wraps, condition_strip, new_figure, proportion_points, save, trial_colour
+from neuronav.runs.plotting import condition_strip, new_figure, proportion_points, save, trial_colour
 
 
 def write_compass_figures(result, config, out_dir: Path) -> list[Path]:
-    """compass.png (trial 0, like Fig. 5c), heading_error.png (every trial) and error_summary.png (every
-    trial's errors and success as points, with intervals)."""
+    """compass.png (trial 0, like Fig. 5c, with the run's mean error), heading_error.png (every trial) and
+    error_summary.png (every trial's errors and success as points, with intervals)."""
     out_dir = Path(out_dir)
     return [save(compass_figure(result, config), out_dir / "compass.png"),
             save(error_figure(result, config), out_dir / "heading_error.png"),
             save(error_summary_figure(result, config), out_dir / "error_summary.png")]
 
 
+def wrapped_to_edges(time, angle_rad):
+    """Angles wrapped to [-π, π), carried to the edge at each wrap, for a line plot without a gap or a false jump.
+
+    Where consecutive samples wrap (they differ by more than π), the line between them (the shorter way
+    round, linear in time) meets the edge ±π at a crossing time: the piece before ends there on one edge,
+    a NaN breaks the line, and the next piece starts at the same time on the other edge. Samples are kept
+    as they are; a NaN sample breaks the line as before.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+    angle_rad : array_like, shape (n,)
+
+    Returns
+    -------
+    time, angle_rad : ndarray, shape (n + 3 * wraps,)
+    """
+    time = np.asarray(time, float)
+    wrapped = np.mod(np.asarray(angle_rad, float) + np.pi, 2 * np.pi) - np.pi
+    steps = np.diff(wrapped)
+    with np.errstate(invalid="ignore"):
+        wraps = np.flatnonzero(np.abs(steps) > np.pi)
+    delta = np.mod(steps[wraps] + np.pi, 2 * np.pi) - np.pi  # the shorter way round, across the edge
+    edge = np.copysign(np.pi, delta)
+    fraction = (edge - wrapped[wraps]) / delta
+    crossing_s = time[wraps] + fraction * (time[wraps + 1] - time[wraps])
+    at = np.repeat(wraps + 1, 3)
+    angles = np.stack([edge, np.full_like(edge, np.nan), -edge], axis=1).ravel()
+    return np.insert(time, at, np.repeat(crossing_s, 3)), np.insert(wrapped, at, angles)
+
+
+def run_mean(result, key: str) -> tuple[float, int]:
+    """The mean of metric ``key`` over the trials that finished with a finite value, and how many (as summary.json)."""
+    values = np.array([float(t[key]) for t in result.trials if t.get("status", "ok") == "ok"
+                       and np.isfinite(float(t.get(key, np.nan)))])
+    return (float(values.mean()) if values.size else float("nan")), int(values.size)
+
+
 def compass_figure(result, config, trial: int = 0):
-    """Trial 0: the ant's heading and its stored direction (top), the scene's angle and the Z_{7,1} phase (bottom)."""
+    """One trial (0 by default): the ant's heading and its stored direction (top), the scene's angle and the
+    Z_{7,1} phase (bottom); the title gives that trial's mean error and the run's (the mean over its n trials)."""
     ts = result.timeseries
     keep = np.isfinite(ts["time_s"][trial])
     time_s = ts["time_s"][trial, keep]
@@ -32,15 +71,22 @@ def compass_figure(result, config, trial: int = 0):
                        (bottom, (("scene_yaw_rad", "scene angle", "tab:orange", "-"),
                                  ("phase_rad", "Zernike Z7,1 phase", "tab:green", "-")))):
         for key, label, colour, style in series:
-            t, angle = break_at_wraps(time_s, ts[key][trial, keep])
+            t, angle = wrapped_to_edges(time_s, ts[key][trial, keep])
             ax.plot(t, np.degrees(angle), color=colour, ls=style, lw=1.0, label=label, gid=key)
         ax.set_ylim(-180, 180)
         ax.set_ylabel("angle (deg)")
         ax.legend(loc="upper right", fontsize=8)
     bottom.set_xlabel("time (s)")
     row = result.trials[trial]
-    top.set_title(f"visual compass, {config.rotation} rotation: mean error {row['mean_error_deg']:.1f}°"
-                  + (f", jumps recovered {row['recovered_fraction'] * 100:.0f}%" if config.rotation == "jump" else ""))
+    jump = config.rotation == "jump"
+    run_error, n = run_mean(result, "mean_error_deg")
+    line = (f"trial {trial}: mean error {row['mean_error_deg']:.1f}°"
+            + (f", jumps recovered {row['recovered_fraction'] * 100:.0f}%" if jump else ""))
+    line += f"\nmean over {n} trials: mean error {run_error:.1f}°"
+    if jump:
+        line += f", jumps recovered {run_mean(result, 'recovered_fraction')[0] * 100:.0f}%"
+    top.set_title(f"visual compass, {config.rotation} rotation, trial {trial} shown (of {len(result.trials)})\n{line}",
+                  fontsize=9)
     return fig
 
 

@@ -76,6 +76,17 @@ def test_proportion_points_draw_each_outcome_and_the_wilson_interval():
     assert success_text([True, True, False]) == "success 2 of 3 = 67 % (Wilson 95 % CI 21–94 %)"
 
 
+@pytest.mark.parametrize("outcomes", [[False] * 3, [False] * 6, [True] * 3, [True] * 6])
+def test_proportion_points_draw_all_or_none_outcomes(outcomes):
+    # Wilson's bounds at 0 of n and n of n can fall a rounding error past the rate (0 of 3: 5.6e-17):
+    # the bar must still be drawn, not refused by matplotlib as a negative error.
+    _, ax = new_figure()
+    drawn = proportion_points(ax, {"c": outcomes}, gid="reached")
+    assert drawn["c"]["rate"] == float(outcomes[0])
+    low, high = interval(ax, "reached c rate")
+    assert low <= drawn["c"]["rate"] <= high and high - low > 0.2
+
+
 def test_strip_offsets_spread_evenly_within_the_width():
     offsets = strip_offsets(5, width=0.4)
     np.testing.assert_allclose(sorted(offsets), np.linspace(-0.2, 0.2, 5))
@@ -145,6 +156,27 @@ def test_plume_tracking_times_and_arrivals():
     assert points_under(fig, "success") == outcomes(result.trials)
     assert_centres(fig, "success")
     assert [t.get_text().split("\n")[0] for t in fig.axes[1].get_xticklabels()] == ["odour on", "odour off"]
+
+
+def test_plume_paths_draw_each_trial_over_its_own_plume():
+    from neuronav.scenarios.plume_tracking.figures import plume_paths_figure
+
+    result, config = tiny_run("plume-tracking", 3)
+    fig = plume_paths_figure(result, config, max_panels=2)
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_xlabel() == "x (m)"]
+    assert len(panels) == 3, "trials 0 and 1 over their own plumes, then every path without a plume"
+    for i, ax in enumerate(panels[:2]):
+        assert [drawn.get_gid() for drawn in ax.lines if (drawn.get_gid() or "").startswith("trial ")] == [
+            f"trial {i}"]
+        (image,) = ax.images
+        raster = np.asarray(result.timeseries["plume_raster"][i], float)
+        np.testing.assert_array_equal(np.ma.filled(image.get_array(), np.nan),
+                                      np.where(raster > config.threshold, raster, np.nan))
+        assert f"trial {i}" in ax.get_title()
+    assert not np.array_equal(result.timeseries["plume_raster"][0], result.timeseries["plume_raster"][1])
+    assert not panels[2].images and "no plume" in panels[2].get_title()
+    assert sorted(d.get_gid() for d in panels[2].lines if (d.get_gid() or "").startswith("trial ")) == [
+        "trial 0", "trial 1", "trial 2"]
 
 
 def test_cue_integration_groups_by_cue_mode_in_the_aggregate_and_the_figure():
