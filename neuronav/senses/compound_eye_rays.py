@@ -26,7 +26,7 @@ import numpy as np
 
 from neuronav.errors import ConfigError
 from neuronav.senses.compound_eye import FWHM_TO_SIGMA, RAY_PATTERNS, TILE_DEG
-from neuronav.senses.raycast import _INTERSECT, MAX_RAYS_PER_CHUNK, bounding_radius_m
+from neuronav.senses.raycast import _INTERSECT, MAX_RAYS_PER_CHUNK, bounding_radius_m, tiles_meet_spheres
 from neuronav.senses.vision import FAR_M, NEAR_M
 from neuronav.spec.body import CompoundEye
 from neuronav.spec.world import OBJECT_SIZES, World
@@ -375,17 +375,5 @@ class CompoundEyeReader:
         """Whether a tile's cone of rays can meet an object's bounding sphere, bool (O, n, T) (as
         :class:`neuronav.senses.raycast.RayCaster` culls its pixel tiles)."""
         axes = np.einsum("nij,tj->nti", rot_local, self._tile_axis)  # (n, T, 3)
-        to_centre = self._centres[None] - eyes_local[:, None]  # (n, O, 3)
-        distance = np.linalg.norm(to_centre, axis=2)
-        inside = distance <= self._radii
-        with np.errstate(divide="ignore", invalid="ignore"):
-            unit = np.where(inside[..., None], 0.0, to_centre / distance[..., None])
-            sin_reach = np.where(inside, 0.0, self._radii / distance)
-        cos_reach = np.sqrt(1.0 - sin_reach ** 2)
-        cosine = unit @ axes.transpose(0, 2, 1)  # (n, O, T)
-        threshold = cos_reach[..., None] * self._tile_cos - sin_reach[..., None] * self._tile_sin
-        threshold[inside] = -2.0
-        threshold[:, :, self._tile_wide] = -2.0
-        seen = cosine >= threshold - 1e-6
-        seen &= (distance - self._radii <= FAR_M)[..., None]
-        return seen.transpose(1, 0, 2)
+        return tiles_meet_spheres(axes, eyes_local, self._centres, self._radii, self._tile_cos, self._tile_sin,
+                                  self._tile_wide)

@@ -236,21 +236,35 @@ class RayCaster:
         axes_world = np.einsum("nij,tj->nti", rotations, self._tile_axis)
         axes = np.stack([c * axes_world[..., 0] + s * axes_world[..., 1],
                          -s * axes_world[..., 0] + c * axes_world[..., 1], axes_world[..., 2]], axis=-1)
-        to_centre = self._centres[None] - eyes_local[:, None]  # (n, O, 3)
-        distance = np.linalg.norm(to_centre, axis=2)
-        inside = distance <= self._radii
-        with np.errstate(divide="ignore", invalid="ignore"):
-            unit = np.where(inside[..., None], 0.0, to_centre / distance[..., None])
-            sin_reach = np.where(inside, 0.0, self._radii / distance)
-        cos_reach = np.sqrt(1.0 - sin_reach ** 2)
-        cosine = unit @ axes.transpose(0, 2, 1)  # (n, O, T)
-        threshold = cos_reach[..., None] * self._tile_cos - sin_reach[..., None] * self._tile_sin
-        # Inside a bounding sphere, or a tile wider than a right angle: every ray is tested.
-        threshold[inside] = -2.0
-        threshold[:, :, self._tile_half_rad >= np.pi / 2] = -2.0
-        seen = cosine >= threshold - 1e-6
-        seen &= (distance - self._radii <= FAR_M)[..., None]
-        return seen.transpose(1, 0, 2)
+        return tiles_meet_spheres(axes, eyes_local, self._centres, self._radii, self._tile_cos, self._tile_sin,
+                                  self._tile_half_rad >= np.pi / 2)
+
+
+def tiles_meet_spheres(axes: np.ndarray, eyes_local: np.ndarray, centres: np.ndarray, radii: np.ndarray,
+                       tile_cos: np.ndarray, tile_sin: np.ndarray, wide: np.ndarray) -> np.ndarray:
+    """Whether each tile's cone of rays can meet each bounding sphere, bool (O, n, T).
+
+    ``axes`` (n, T, 3): the tiles' unit axes; ``eyes_local`` (n, 3): the eyes, both in the spheres' frame;
+    ``centres`` (O, 3), ``radii`` (O,); ``tile_cos``, ``tile_sin`` (T,): cosine and sine of each tile's half
+    angle; ``wide`` (T,): tiles wider than a right angle (every ray tested). The angle between a tile's axis
+    and the direction to a sphere's centre must be at most the tile's half angle plus the sphere's angular
+    radius, compared as cosines with a margin so that no hit is culled; an eye inside a sphere tests every
+    ray; spheres beyond ``FAR_M`` are never seen.
+    """
+    to_centre = centres[None] - eyes_local[:, None]  # (n, O, 3)
+    distance = np.linalg.norm(to_centre, axis=2)
+    inside = distance <= radii
+    with np.errstate(divide="ignore", invalid="ignore"):
+        unit = np.where(inside[..., None], 0.0, to_centre / distance[..., None])
+        sin_reach = np.where(inside, 0.0, radii / distance)
+    cos_reach = np.sqrt(1.0 - sin_reach ** 2)
+    cosine = unit @ axes.transpose(0, 2, 1)  # (n, O, T)
+    threshold = cos_reach[..., None] * tile_cos - sin_reach[..., None] * tile_sin
+    threshold[inside] = -2.0
+    threshold[:, :, wide] = -2.0
+    seen = cosine >= threshold - 1e-6
+    seen &= (distance - radii <= FAR_M)[..., None]
+    return seen.transpose(1, 0, 2)
 
 
 # -- intersections: rays (origin relative to the object's position, unit direction), each a tuple
