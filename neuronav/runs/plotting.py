@@ -67,19 +67,35 @@ def save(fig, path, tight: bool = True) -> Path:
     return path
 
 
-def break_at_wraps(time, angle_rad, period_rad: float = 2 * np.pi):
-    """Angles wrapped to [-period/2, period/2) with a NaN inserted wherever they wrap.
+def break_at_wraps(time, angle_rad):
+    """Angles wrapped to [-π, π), carried to the edge at each wrap, for a line plot without a gap or a false jump.
 
-    A line plot of the result has no vertical stroke across the axis at a ±180° crossing.
+    Where consecutive samples wrap (they differ by more than π), the line between them (the shorter way
+    round, linear in time) meets the edge ±π at a crossing time: the piece before ends there on one edge,
+    a NaN breaks the line, and the next piece starts at the same time on the other edge. Samples are kept
+    as they are; a NaN sample breaks the line as before.
+
+    Parameters
+    ----------
+    time : array_like, shape (n,)
+    angle_rad : array_like, shape (n,)
 
     Returns
     -------
-    time, angle_rad : ndarray, shape (n + wraps,)
+    time, angle_rad : ndarray, shape (n + 3 * wraps,)
     """
     time = np.asarray(time, float)
-    wrapped = np.mod(np.asarray(angle_rad, float) + period_rad / 2, period_rad) - period_rad / 2
-    jumps = np.flatnonzero(np.abs(np.diff(wrapped)) > period_rad / 2) + 1
-    return np.insert(time, jumps, np.nan), np.insert(wrapped, jumps, np.nan)
+    wrapped = np.mod(np.asarray(angle_rad, float) + np.pi, 2 * np.pi) - np.pi
+    steps = np.diff(wrapped)
+    with np.errstate(invalid="ignore"):
+        wraps = np.flatnonzero(np.abs(steps) > np.pi)
+    delta = np.mod(steps[wraps] + np.pi, 2 * np.pi) - np.pi  # the shorter way round, across the edge
+    edge = np.copysign(np.pi, delta)
+    fraction = (edge - wrapped[wraps]) / delta
+    crossing_s = time[wraps] + fraction * (time[wraps + 1] - time[wraps])
+    at = np.repeat(wraps + 1, 3)
+    angles = np.stack([edge, np.full_like(edge, np.nan), -edge], axis=1).ravel()
+    return np.insert(time, at, np.repeat(crossing_s, 3)), np.insert(wrapped, at, angles)
 
 
 def heading_panel(ax, time, heading_rad, turn_at, time_label: str) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.runs.plotting import condition_strip, new_figure, proportion_points, save, trial_colour
+from neuronav.runs.plotting import break_at_wraps, condition_strip, new_figure, proportion_points, save, trial_colour
 
 
 def write_compass_figures(result, config, out_dir: Path) -> list[Path]:
@@ -19,37 +19,6 @@ def write_compass_figures(result, config, out_dir: Path) -> list[Path]:
     return [save(compass_figure(result, config), out_dir / "compass.png"),
             save(error_figure(result, config), out_dir / "heading_error.png"),
             save(error_summary_figure(result, config), out_dir / "error_summary.png")]
-
-
-def wrapped_to_edges(time, angle_rad):
-    """Angles wrapped to [-π, π), carried to the edge at each wrap, for a line plot without a gap or a false jump.
-
-    Where consecutive samples wrap (they differ by more than π), the line between them (the shorter way
-    round, linear in time) meets the edge ±π at a crossing time: the piece before ends there on one edge,
-    a NaN breaks the line, and the next piece starts at the same time on the other edge. Samples are kept
-    as they are; a NaN sample breaks the line as before.
-
-    Parameters
-    ----------
-    time : array_like, shape (n,)
-    angle_rad : array_like, shape (n,)
-
-    Returns
-    -------
-    time, angle_rad : ndarray, shape (n + 3 * wraps,)
-    """
-    time = np.asarray(time, float)
-    wrapped = np.mod(np.asarray(angle_rad, float) + np.pi, 2 * np.pi) - np.pi
-    steps = np.diff(wrapped)
-    with np.errstate(invalid="ignore"):
-        wraps = np.flatnonzero(np.abs(steps) > np.pi)
-    delta = np.mod(steps[wraps] + np.pi, 2 * np.pi) - np.pi  # the shorter way round, across the edge
-    edge = np.copysign(np.pi, delta)
-    fraction = (edge - wrapped[wraps]) / delta
-    crossing_s = time[wraps] + fraction * (time[wraps + 1] - time[wraps])
-    at = np.repeat(wraps + 1, 3)
-    angles = np.stack([edge, np.full_like(edge, np.nan), -edge], axis=1).ravel()
-    return np.insert(time, at, np.repeat(crossing_s, 3)), np.insert(wrapped, at, angles)
 
 
 def run_mean(result, key: str) -> tuple[float, int]:
@@ -71,7 +40,7 @@ def compass_figure(result, config, trial: int = 0):
                        (bottom, (("scene_yaw_rad", "scene angle", "tab:orange", "-"),
                                  ("phase_rad", "Zernike Z7,1 phase", "tab:green", "-")))):
         for key, label, colour, style in series:
-            t, angle = wrapped_to_edges(time_s, ts[key][trial, keep])
+            t, angle = break_at_wraps(time_s, ts[key][trial, keep])
             ax.plot(t, np.degrees(angle), color=colour, ls=style, lw=1.0, label=label, gid=key)
         ax.set_ylim(-180, 180)
         ax.set_ylabel("angle (deg)")

@@ -192,13 +192,20 @@ def test_connectivity_plot_labels_every_population_block():
 
 
 # -- headings --------------------------------------------------------------------------------
-def test_break_at_wraps_inserts_one_gap_per_crossing():
+def test_break_at_wraps_inserts_one_gap_per_crossing_and_meets_the_edges():
     time = np.arange(200.0)
     heading = np.linspace(0.0, 6 * np.pi, 200)  # three turns: crosses ±180° three times
     t, wrapped = break_at_wraps(time, heading)
-    assert np.isnan(wrapped).sum() == 3 and np.isnan(t).sum() == 3
-    finite = wrapped[np.isfinite(wrapped)]
-    np.testing.assert_allclose(np.exp(1j * finite), np.exp(1j * heading))
+    assert np.isnan(wrapped).sum() == 3 and len(wrapped) == 200 + 3 * 3
+    # The samples are kept (same angles, in order) ...
+    samples = np.isin(t, time)
+    np.testing.assert_allclose(np.exp(1j * wrapped[samples]), np.exp(1j * heading))
+    # ... and each piece runs to the edge it crosses, the next starts on the other edge at the same time:
+    for gap in np.flatnonzero(np.isnan(wrapped)):
+        assert wrapped[gap - 1] == pytest.approx(np.pi) and wrapped[gap + 1] == pytest.approx(-np.pi)
+        assert t[gap - 1] == t[gap + 1] and time[0] < t[gap - 1] < time[-1]
+        crossing = np.interp(t[gap - 1], time, heading)
+        assert np.mod(crossing, 2 * np.pi) == pytest.approx(np.pi, abs=1e-9)
     steps = np.abs(np.diff(wrapped))
     assert np.all(steps[np.isfinite(steps)] < np.pi)
 
