@@ -28,6 +28,10 @@ Head: ``head_pos`` (N, 3) m is (x, y, ``PointAgents.head_height_m``) and ``head_
 z from the heading (the head's +x is the forward direction); ``cast_rays`` tests rays, stacked over
 agents, against the world's objects and the ground plane z = 0 (:func:`neuronav.senses.raycast.first_hit_distance`).
 
+Video: ``render("follow")`` films from above (:class:`neuronav.engine.video_topview.TopViewCamera`: the ground,
+trails, objects and every agent's pose, agent 0 kept in view); ``follow_view()`` is that camera's
+:class:`~neuronav.engine.video_topview.TopView`, ``keep_in_view(points)`` frames it on a start, nest or goal.
+
 Antennae (:class:`~neuronav.spec.world.PointAntenna`, A per agent): their tips are the odour and wind
 sites, read as ``odour_sites`` / ``wind_sites`` (N, A, 3) m, ``odour`` (N, A, K) and ``wind``
 (N, A, 2) m/s from the world's chemistry (:mod:`neuronav.senses.chemistry`) in one array operation over
@@ -148,6 +152,8 @@ class KinematicBackend(BackendBase):
         batched=True,
         can_render=False,
     )
+    # --video films every world from above (render("follow")), cameras or not.
+    films_follow = True
 
     def __init__(self, calibration: UnicycleCalibration | None = None, timestep_s: float = 0.008) -> None:
         if not timestep_s > 0:
@@ -159,6 +165,7 @@ class KinematicBackend(BackendBase):
         self._cameras: dict[str, Camera] = {}
         self._casters: dict = {}
         self._scene_yaw_rad = 0.0
+        self._top = None
 
     # -- protocol ------------------------------------------------------------------------------
     def load(self, world: World, bodies: Sequence[PointAgents]) -> None:
@@ -173,6 +180,7 @@ class KinematicBackend(BackendBase):
         self._cameras = {c.name: c for c in cameras}
         self._casters = {}  # built on a camera's first read
         self._scene_yaw_rad = 0.0
+        self._top = None  # the top view, built on the first render("follow")
         sensors = tuple(SensorSpec(c.name, (c.height_px, c.width_px), "grey [0, 1]") for c in cameras)
         # Compound eyes: (M, 2), green and UV per ommatidium (neuronav.senses.compound_eye), read by rays.
         self._compound_eyes = {e.name: e for e in compound_eyes}
@@ -239,6 +247,8 @@ class KinematicBackend(BackendBase):
         self._commands = {m.name: np.zeros((n,) + m.shape) for m in self.capabilities.motors}
         self._push = None  # (batch, 2) velocity change per step from apply_force, for the next step() call
         self._time_s = 0.0
+        if self._top is not None:
+            self._top.framing.reset()
 
     def reset_agents(self, agents, position_m, heading_rad=None, yaw_rad: float | None = None) -> None:
         """Put only ``agents`` back at rest at ``position_m``, as :meth:`reset` puts every agent.
@@ -333,8 +343,29 @@ class KinematicBackend(BackendBase):
         return out
 
     def render(self, camera: str) -> np.ndarray:
-        """Agent 0's uint8 RGB image (H, W, 3) from ``camera``."""
+        """Agent 0's uint8 RGB image (H, W, 3) from ``camera``; ``"follow"``: the view from above (module doc)."""
+        if camera == "follow" and camera not in self._cameras:
+            return self._top_camera().render(self.position, self.heading, self._scene_yaw_rad)
         return self.render_batch(camera, agents=slice(0, 1))[0]
+
+    def follow_view(self):
+        """The :class:`~neuronav.engine.video_topview.TopView` that ``render("follow")`` draws from now."""
+        camera = self._top_camera()
+        camera.framing.keep(self.position[:1])
+        return camera.view
+
+    def keep_in_view(self, points_m) -> None:
+        """Frame the view from above on ``points_m`` (..., 2) m (a start, a nest, a goal) and agent 0's path, not
+        on the whole world (:meth:`neuronav.engine.video_topview.TopFraming.frame`)."""
+        self._top_camera().framing.frame(points_m)
+
+    def _top_camera(self):
+        self._require()
+        if self._top is None:
+            from neuronav.engine.video_topview import TopViewCamera  # lazily: only videos need it
+
+            self._top = TopViewCamera(self.world)
+        return self._top
 
     def render_batch(self, camera: str, agents: slice | None = None) -> np.ndarray:
         """Every agent's (or ``agents``') uint8 RGB image (N, H, W, 3) from ``camera``, by ray casting."""

@@ -5,7 +5,9 @@ One read is what the path-integration scenario's sky compass does once per gait 
 the sensor port (``head_quat``), and, only when the world has objects, the ommatidia's world directions
 (:meth:`neuronav.senses.dorsal_rim.DorsalRim.sky_directions`, 2 x 80 ommatidia by default), the head's
 position (``head_pos``) and ``backend.cast_rays`` from it along each of them (occlusion: an ommatidium
-whose ray hits something within 50 m, ``cast_rays``' default, sees no polarised light); then the POL
+whose ray hits something within 50 m, ``SKY_RAY_M``, sees no polarised light; the rays are cast only as
+far as something can be hit, :class:`neuronav.senses.sky_occlusion.SkyOcclusion`: until the lowest-rising
+ray is above the scene's top, 18 m in the forest below); then the POL
 responses (:meth:`~neuronav.senses.dorsal_rim.DorsalRim.responses`, one ray per ommatidium: the sky's
 :meth:`~neuronav.senses.sky.Sky.analysed_degree`).
 
@@ -30,6 +32,7 @@ Usage::
 
     python benchmarks/dorsal_rim_read.py [--reads 300] [--agents 1000] [--backends kinematic,mujoco,pybullet]
     python benchmarks/dorsal_rim_read.py --reads 5 --agents 20 --repeats 1   # quick look
+    python benchmarks/dorsal_rim_read.py --backends mujoco,pybullet --uncut    # every ray cast 50 m (before)
 """
 
 from __future__ import annotations
@@ -51,7 +54,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from neuronav import registry  # noqa: E402
 from neuronav.bodies.desert_ant import desert_ant  # noqa: E402
-from neuronav.scenarios.path_integration.inputs import SkyView  # noqa: E402
+from neuronav.scenarios.path_integration.inputs import SKY_RAY_M, SkyView  # noqa: E402
 from neuronav.scenarios.worlds.scenes import forest  # noqa: E402
 from neuronav.senses.dorsal_rim import DorsalRim  # noqa: E402
 from neuronav.senses.sky import Sky  # noqa: E402
@@ -79,11 +82,14 @@ def timed(work, repeats: int, between=None) -> tuple[float, float, object]:
     return 1e3 * float(np.median(cpu)), 1e3 * float(np.median(wall)), result
 
 
-def physics_row(name: str, label: str, world: World, reads: int, rim: DorsalRim, sky: Sky) -> tuple:
+def physics_row(name: str, label: str, world: World, reads: int, rim: DorsalRim, sky: Sky,
+                uncut: bool = False) -> tuple:
     backend = registry.load("backend", name)()
     backend.load(world, [desert_ant()])
     backend.step(50)
     view = SkyView(sky, world, rim)
+    if uncut and view.occludes:  # --uncut: every ray cast the full SKY_RAY_M, as before SkyOcclusion (the same answers)
+        view._occlusion.top_m = None
     cpu, wall, responses = timed(lambda: view(backend), reads, lambda: backend.step(1))
     rotations = view.head_rotations(backend)
     directions = rim.sky_directions(rotations)[0]
@@ -95,14 +101,37 @@ def physics_row(name: str, label: str, world: World, reads: int, rim: DorsalRim,
     def rays():  # what SkyView does with the rays, when the world has objects
         heads = backend.read(("head_pos",))["head_pos"].reshape(-1, 3)
         seen = rim.sky_directions(rotations)
-        return backend.cast_rays(np.repeat(heads, seen.shape[1], axis=0), seen.reshape(-1, 3))
+        reach_m = view._occlusion.reach_m(heads, seen, SKY_RAY_M)
+        return backend.cast_rays(np.repeat(heads, seen.shape[1], axis=0), seen.reshape(-1, 3), reach_m)
 
     # The read's parts, each alone (CPU ms): the pose, the rays (if any are cast), the POL responses.
     parts = [timed(lambda: view.head_rotations(backend), reads)[0],
              timed(rays, reads)[0] if view.occludes else float("nan"),
              timed(lambda: rim.responses(sky, rotations, visible[None] if view.occludes else None), reads)[0]]
+    kept = kept_rays(backend, rays, reads) if view.occludes else (float("nan"), 0)
     backend.close()
-    return name, label, cpu, wall, raw_cpu, parts, int((~visible).sum()), responses.shape[1]
+    return name, label, cpu, wall, raw_cpu, parts, int((~visible).sum()), responses.shape[1], kept
+
+
+def kept_rays(backend, rays, reads: int) -> tuple[float, int]:
+    """The engine's share of ``rays()``: the CPU ms of its ray test (``_cast_rays``, clocked inside
+    ``cast_rays``) on the rays ``cast_rays`` keeps, median over ``reads`` calls, and how many it keeps."""
+    inner, clocked, count = backend._cast_rays, [], []
+
+    def engine(origins, *rest):
+        started = time.process_time()
+        out = inner(origins, *rest)
+        clocked.append(time.process_time() - started)
+        count.append(len(origins))
+        return out
+
+    backend._cast_rays = engine
+    try:
+        for _ in range(reads):
+            rays()
+    finally:
+        del backend._cast_rays
+    return (1e3 * float(np.median(clocked)), int(np.median(count))) if clocked else (0.0, 0)
 
 
 def kinematic_row(label: str, world: World, agents: int, repeats: int, rim: DorsalRim, sky: Sky) -> tuple:
@@ -122,6 +151,9 @@ def main(argv=None) -> None:
     parser.add_argument("--agents", type=int, default=1000, help="kinematic agents read at once")
     parser.add_argument("--repeats", type=int, default=5, help="kinematic batched reads (median)")
     parser.add_argument("--backends", default="kinematic,mujoco,pybullet")
+    parser.add_argument("--uncut", action="store_true",
+                        help="physics backends: cast every ray the full 50 m (SKY_RAY_M), not only as far as "
+                             "the scene is high: the read before that cut, for comparison")
     args = parser.parse_args(argv)
     rim, sky = DorsalRim(), Sky(sun_azimuth_rad=0.8, sun_elevation_rad=0.5)
     names = args.backends.split(",")
@@ -132,15 +164,17 @@ def main(argv=None) -> None:
     if physics:
         print("\nper agent per read, ms; parts (CPU, each timed alone): pose = head_quat read and its rotation "
               "matrix, rays = head_pos read, world directions and cast_rays (cast only where the world has objects), "
-              "POL = DorsalRim.responses; engine = the engine's ray test of all the rays from the head, uncut")
+              "POL = DorsalRim.responses; kept = the engine's ray test inside cast_rays, of the rays it keeps "
+              "(its culling: PyBullet), and how many; engine = the engine's ray test of all the rays from the head "
+              "over 50 m, uncut")
         print(f"{'backend':10s} {'scene':8s} {'read cpu':>9s} {'wall':>7s} {'pose':>6s} {'rays':>6s} {'POL':>6s} "
-              f"{'engine':>7s} {'blocked':>8s}")
+              f"{'kept':>6s} {'rays':>4s} {'engine':>7s} {'blocked':>8s}")
         for name in physics:
             for scene, world in scenes().items():
-                row = physics_row(name, scene, world, args.reads, rim, sky)
-                backend, label, cpu, wall, raw_cpu, parts, blocked, m = row
+                row = physics_row(name, scene, world, args.reads, rim, sky, args.uncut)
+                backend, label, cpu, wall, raw_cpu, parts, blocked, m, (kept_cpu, kept) = row
                 print(f"{backend:10s} {label:8s} {cpu:9.3f} {wall:7.3f} {parts[0]:6.3f} {parts[1]:6.3f} "
-                      f"{parts[2]:6.3f} {raw_cpu:7.3f} {blocked:4d}/{m}")
+                      f"{parts[2]:6.3f} {kept_cpu:6.3f} {kept:4d} {raw_cpu:7.3f} {blocked:4d}/{m}")
                 verdicts.append((f"{backend} {label}", cpu))
     if "kinematic" in names:
         print(f"\n{'backend':10s} {'scene':8s} {'agents':>7s} {'call cpu':>9s} {'wall':>8s} {'per agent cpu':>14s} "

@@ -108,9 +108,9 @@ class ClockedLegOdometer(LegOdometer):
         super().__init__(believed_body, sample_every)
         self.reads_s = self.update_s = 0.0
 
-    def _sample(self, loop: AgentLoop) -> None:
+    def after_step(self, loop: AgentLoop) -> None:
         started = time.process_time()
-        super()._sample(loop)
+        super().after_step(loop)
         self.reads_s += time.process_time() - started
 
     def flush(self) -> None:

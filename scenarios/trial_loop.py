@@ -15,6 +15,7 @@ import numpy as np
 
 from neuronav.engine.loop import AgentLoop, Clocks, Hook
 from neuronav.engine.video import VideoRecorder
+from neuronav.engine.video_overlay import VideoContent, VideoOverlay
 
 # Video: one frame of the follow camera every this many control steps (0.064 s at 8 ms), played in
 # real time (15.6 frames per second), streamed to the file.
@@ -23,9 +24,12 @@ VIDEO_EVERY = 8
 
 def run_loop(engine, world, body, gait, clocks: Clocks, steering, *, heading_rad: float, seed: int,
              duration_s: float, until: Callable[[AgentLoop], bool] | None = None, hooks: Sequence[Hook] = (),
-             video_path=None, position_m: tuple[float, float] = (0.0, 0.0)) -> tuple[AgentLoop, np.ndarray, float]:
+             video_path=None, position_m: tuple[float, float] = (0.0, 0.0),
+             video_content: VideoContent | None = None) -> tuple[AgentLoop, np.ndarray, float]:
     """Load ``world`` and ``body`` into ``engine``, start at ``position_m`` (the origin by default)
     facing ``heading_rad`` (clockwise from +y) and run for ``duration_s`` or until ``until(loop)``.
+    With ``video_path`` the follow camera films it, with ``video_content`` drawn over (and always the
+    world's plume, the path and the objects out of view: :mod:`neuronav.engine.video_overlay`).
 
     Returns
     -------
@@ -38,7 +42,8 @@ def run_loop(engine, world, body, gait, clocks: Clocks, steering, *, heading_rad
     started = time.perf_counter()
     with engine:
         engine.load(world, [body])
-        video = VideoRecorder(video_path, "follow", every=VIDEO_EVERY) if video_path is not None else None
+        video = (VideoRecorder(video_path, "follow", every=VIDEO_EVERY, compose=VideoOverlay(video_content))
+                 if video_path is not None else None)
         loop = AgentLoop(engine, gait, clocks, steering=steering, hooks=[*hooks, *([video] if video else [])])
         loop.reset(seed=seed, position_m=tuple(position_m), yaw_rad=np.pi / 2 - heading_rad)
         try:

@@ -20,8 +20,9 @@ What the model contains
 - A site per spec site. Body cameras are not model cameras: the backend renders them from the mount
   segment's pose by the rules of :mod:`neuronav.senses.vision` (its own frustum per view).
 - The world: a plane (flat, wall), a heightfield (uneven), a wall box, objects (a cone is a convex
-  mesh), a sky box and a floor coloured from :class:`~neuronav.spec.world.Appearance`, a light, and the
-  physics options (timestep, integrator, solver). The ground plane is drawn out to
+  mesh), a sky box (:func:`sky_box`: the World's sky, :func:`neuronav.senses.vision.sky_rgb`, as PyBullet and the
+  eyes paint it) and a floor (textured, a plain one too) coloured from :class:`~neuronav.spec.world.Appearance`,
+  a light, and the physics options (timestep, integrator, solver). The ground plane is drawn out to
   :data:`neuronav.senses.vision.GROUND_REACH_M` (a plane collides everywhere; its size only bounds the
   drawing); around a heightfield a visual-only plane (group ``HORIZON_GROUP``) carries the ground on.
   The objects are geoms of one mocap body at the origin (``SCENE_BODY``), turned for the scene yaw.
@@ -45,7 +46,14 @@ import numpy as np  # noqa: E402
 from neuronav.engine.articulated import FOLLOW_SIZE_PX  # noqa: E402
 from neuronav.errors import ConfigError  # noqa: E402
 from neuronav.senses.trail_floor import TrailFloor, png_bytes, trail_floor  # noqa: E402
-from neuronav.senses.vision import CUBE_FACE_ROTATIONS, GROUND_REACH_M, check_camera, cube_face_px  # noqa: E402
+from neuronav.senses.vision import (  # noqa: E402
+    CUBE_FACE_ROTATIONS,
+    GROUND_REACH_M,
+    check_camera,
+    cube_face_px,
+    sky_rgb,
+    to_uint8,
+)
 from neuronav.spec.body import BodySpec, Segment  # noqa: E402
 from neuronav.spec.world import World  # noqa: E402
 
@@ -71,6 +79,11 @@ HORIZON_DROP_M = 1e-3  # that plane sits just under z = 0, so the heightfield dr
 # flat shading needs no finer grid, and a fine grid over GROUND_REACH_M costs milliseconds per render.
 PLANE_QUADS = 4
 GROUND_TEXEL_PX = 256  # the checker texture (2x2 squares): sharp in the lit, mipmapped follow view too
+PLAIN_TEXEL_PX = 2  # a plain ground's one-colour texture
+SKY_FACE_PX = 64  # the sky box's faces (the sky is a smooth gradient: MuJoCo filters it linearly)
+# The world direction each face of a MuJoCo sky box's data faces, in the data's order (checked by a test), and
+# (for the four side faces) their rows run from the top (z = +1) down.
+SKY_FACE_AXES = ((1, 0, 0), (-1, 0, 0), (0, 0, 1), (0, 0, -1), (0, -1, 0), (0, 1, 0))
 TRAIL_GEOM = "world/trails"  # the plane that shows the odour trails (neuronav.senses.trail_floor)
 # The trail plane's height above the ground: over the ground plane in the depth buffer (a body camera
 # 5 cm up resolves 1e-5 m at 20 m), under anything standing on the floor by no more than this.
@@ -145,9 +158,17 @@ def to_xml(world: World, body: BodySpec, timestep_s: float = 0.002, asset_dir: s
     """The model as MJCF text (for inspection or for loading in MuJoCo's viewer).
 
     MJCF cannot hold texture data: a world with odour trails needs ``asset_dir``, a folder where
-    their floor image is written (``trails.png``), which the text names by its absolute path.
+    their floor image is written (``trails.png``), which the text names by its absolute path; the sky
+    box is written as MuJoCo's gradient from the World's ``sky_rgb`` to its ``horizon_rgb``.
     """
     spec, _ = build_spec(world, body, timestep_s)
+    # The sky box's data cannot be written either: MuJoCo's gradient between the World's zenith and horizon
+    # colours stands for it (the same colours, at other elevations).
+    look = world.appearance
+    sky = next(t for t in spec.textures if t.name == "sky")
+    sky.data, sky.nchannel, sky.width, sky.height = b"", 3, 256, 256
+    sky.builtin, sky.rgb1 = mujoco.mjtBuiltin.mjBUILTIN_GRADIENT, tuple(look.sky_rgb)
+    sky.rgb2 = tuple(look.horizon_rgb if look.horizon_rgb is not None else look.sky_rgb)
     texture = next((t for t in spec.textures if t.name == "trails"), None)
     if texture is not None:
         if asset_dir is None:
@@ -200,9 +221,10 @@ def _visual(spec: mujoco.MjSpec, body: BodySpec, world: World) -> None:
     spec.visual.headlight.diffuse = (0.45, 0.45, 0.45)
     spec.visual.headlight.specular = (0.05, 0.05, 0.05)
     look = world.appearance
-    horizon = look.horizon_rgb if look.horizon_rgb is not None else look.sky_rgb
-    spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-                     rgb1=tuple(look.sky_rgb), rgb2=tuple(horizon), width=256, height=256)
+    # The World's sky (neuronav.senses.vision.sky_rgb), as PyBullet's follow view and every body camera paint it.
+    sky = spec.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, width=SKY_FACE_PX,
+                           height=6 * SKY_FACE_PX, nchannel=3)
+    sky.data = sky_box(look, SKY_FACE_PX).tobytes()
     if look.ground_texture == "checker":
         # A checker texture of 2x2 squares. On a plane MuJoCo maps texrepeat r to one texture per
         # 2/r m, origin-aligned, with rgb2 on the square whose corner is at the origin (checked by a test):
@@ -214,8 +236,34 @@ def _visual(spec: mujoco.MjSpec, body: BodySpec, world: World) -> None:
         ground = spec.add_material(name="ground", texrepeat=(repeat, repeat), texuniform=True)
         ground.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "sand"
     else:
-        spec.add_material(name="ground", rgba=(*look.ground_rgb, 1.0))
+        # A plain ground is a one-colour texture too: a lit view clips each vertex's light to 1 before a texture
+        # multiplies it, not before an untextured colour does; so the ground and the trails' floor image (a
+        # texture, ground-coloured around the trails) show the same colour side by side (no darker rectangle).
+        # MuJoCo truncates 255 * rgb1: the middle of the 8-bit step gives round(255 * ground_rgb), as to_uint8.
+        spec.add_texture(name="sand", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_FLAT,
+                         rgb1=tuple((to_uint8(look.ground_rgb) + 0.5) / 255.0), width=PLAIN_TEXEL_PX,
+                         height=PLAIN_TEXEL_PX)
+        ground = spec.add_material(name="ground", texrepeat=(1.0, 1.0), texuniform=True)
+        ground.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "sand"
     spec.add_material(name="wall", rgba=(0.62, 0.55, 0.47, 1.0))
+
+
+def sky_box(appearance, face_px: int) -> np.ndarray:
+    """The sky of ``appearance`` as a MuJoCo sky box's data: uint8 (6 face_px, face_px, 3), its faces in
+    :data:`SKY_FACE_AXES` order, each texel the colour of :func:`neuronav.senses.vision.sky_rgb` along the
+    direction through its centre (the sky depends on the elevation only, so how MuJoCo turns a face about
+    its axis does not matter)."""
+    centres = (np.arange(face_px) + 0.5) / face_px * 2.0 - 1.0  # -1..1 across a face
+    across, down = np.meshgrid(centres, centres)  # (row, column): down runs +1 at the bottom row
+    faces = []
+    for axis in SKY_FACE_AXES:
+        if axis[2]:  # the top or bottom face: every texel at z = ±1 on the cube
+            directions = np.stack([across, down, np.full_like(across, float(axis[2]))], axis=-1)
+        else:  # a side face: z from +1 (row 0) down to -1
+            directions = np.stack([np.ones_like(across), across, -down], axis=-1)
+        directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+        faces.append(to_uint8(sky_rgb(appearance, directions)))
+    return np.concatenate(faces, axis=0)
 
 
 def _world(spec: mujoco.MjSpec, world: World) -> None:

@@ -89,7 +89,7 @@ import numpy as np
 
 from neuronav.backends.pybullet.camera import ObjectCulling, render_flat, render_follow, render_spectral, spectral_lut
 from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
-from neuronav.backends.pybullet.scene import build_ground, build_object, build_vision_world, place_objects
+from neuronav.backends.pybullet.scene import build_ground, build_object, build_vision_world, exact_rgba, place_objects
 from neuronav.backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.engine.articulated import ArticulatedBackend, FollowView
 from neuronav.engine.backend import quat_product
@@ -332,7 +332,17 @@ class PybulletBackend(ArticulatedBackend):
         if spectral:
             if self._vision_spectral is None:
                 self._vision_spectral = spectral_lut(self.world, self._vision_ground, self._vision_objects)
-            return [render_spectral(cid, view, self._vision_spectral, self._vision_culling) for view in views]
+            if len(self._vision_ground) > 1:  # a heightfield: TinyRenderer draws the ground
+                return render_spectral(cid, views, self._vision_spectral, self._vision_culling)
+            # A flat floor: hidden while the faces are drawn, its pixels drawn from their rays (render_spectral).
+            floor = self._vision_ground[0]
+            pb.changeVisualShape(floor, -1, rgbaColor=[0.0, 0.0, 0.0, 0.0], physicsClientId=cid)
+            try:
+                return render_spectral(cid, views, self._vision_spectral, self._vision_culling,
+                                       (floor, self._vision_floor_z_m))
+            finally:
+                pb.changeVisualShape(floor, -1, rgbaColor=exact_rgba(self.world.appearance.ground_rgb),
+                                     physicsClientId=cid)
         return [render_flat(cid, view, self.world, self._vision_ground, self._vision_floor_z_m, self._vision_culling)
                 for view in views]
 

@@ -3,9 +3,11 @@
 Two builds of one :class:`World`:
 
 - :func:`build_ground` and :func:`build_object` in the physics client: collision shapes, with a look
-  for the follow camera's videos (the floor over ``Ground.size_m`` in the World's appearance: plain,
-  or a checker texture of squares of ``checker_m`` aligned with the world axes, with the parity of
-  every backend: ``ground_rgb`` where ``floor(x / checker_m) + floor(y / checker_m)`` is even);
+  for the follow camera's videos (the floor in the World's appearance: plain out to
+  :data:`neuronav.senses.vision.GROUND_REACH_M`, as the eyes' ground and MuJoCo's plane, or a checker texture
+  over ``Ground.size_m`` of squares of ``checker_m`` aligned with the world axes, with the parity of
+  every backend: ``ground_rgb`` where ``floor(x / checker_m) + floor(y / checker_m)`` is even, and beyond
+  it, out to the same reach, a ring in the checker's mean colour: no floor edge under the horizon);
 - :func:`build_vision_world` in a render-only client that holds no body: looks only, the ground
   reaching :data:`neuronav.senses.vision.GROUND_REACH_M` from the origin. Body cameras colour the ground
   themselves (:mod:`neuronav.backends.pybullet.camera`), so its look there does not matter.
@@ -74,19 +76,41 @@ def build_ground(cid: int, world: World, folder: str) -> list[int]:
         pb.changeVisualShape(floor, -1, textureUniqueId=_texture(cid, checker_image(appearance, squares), "checker",
                                                                  folder), physicsClientId=cid)
     else:
-        half = ground.size_m / 2.0
+        half = max(ground.size_m / 2.0, GROUND_REACH_M)  # plain: on to the horizon, as the eyes see it
         look = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[half, half, 0.005],
                                     visualFramePosition=[0.0, 0.0, top - 0.005],
                                     rgbaColor=exact_rgba(appearance.ground_rgb), physicsClientId=cid)
         floor = pb.createMultiBody(0.0, plane, look, [0.0, 0.0, 0.0], physicsClientId=cid)
     set_friction(cid, world, floor)
     bodies.append(floor)
+    if half < GROUND_REACH_M:
+        _horizon_ring(cid, appearance, half, top)
     trails = trail_floor(world)
     if trails is not None:
         _trail_floor_body(cid, trails, folder)
     wall = _wall(cid, world, with_collision=True)
     if wall is not None:
         set_friction(cid, world, wall)
+    return bodies
+
+
+def _horizon_ring(cid: int, appearance, half_m: float, top_m: float) -> list[int]:
+    """The floor's look beyond a checker floor of half side ``half_m``, out to ``GROUND_REACH_M`` (as the eyes'
+    ground and MuJoCo's plane reach): four visual-only boxes around it, their tops at ``top_m``, in the
+    checker's mean colour (what its squares blend to in the distance). Returns their bodies."""
+    reach = GROUND_REACH_M
+    rgb = np.asarray(appearance.ground_rgb, float)
+    if appearance.ground_texture == "checker":
+        rgb = (rgb + np.asarray(appearance.checker_rgb, float)) / 2.0
+    rgba = exact_rgba(rgb)
+    side, middle = (reach - half_m) / 2.0, (reach + half_m) / 2.0
+    boxes = (((0.0, middle), (reach, side)), ((0.0, -middle), (reach, side)),  # (centre x, y), (half x, y)
+             ((middle, 0.0), (side, half_m)), ((-middle, 0.0), (side, half_m)))
+    bodies = []
+    for (x, y), (hx, hy) in boxes:
+        look = pb.createVisualShape(pb.GEOM_BOX, halfExtents=[hx, hy, 0.005], visualFramePosition=[0.0, 0.0, -0.005],
+                                    rgbaColor=rgba, physicsClientId=cid)
+        bodies.append(pb.createMultiBody(0.0, -1, look, [x, y, top_m], physicsClientId=cid))
     return bodies
 
 

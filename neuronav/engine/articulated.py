@@ -48,6 +48,7 @@ from neuronav.engine.backend import (
     check_seed,
     start_pose,
 )
+from neuronav.engine.sampling import Sampler
 from neuronav.errors import ConfigError, PortError
 from neuronav.senses.chemistry import Chemistry
 from neuronav.senses.compound_eye_views import eye_views
@@ -380,27 +381,30 @@ class ArticulatedBackend(BackendBase):
         """Sensor values, each with a leading batch dimension of 1; only the names asked for are computed."""
         self._require()
         names = list(self._check_read(names))
-        # The compound eyes asked for are rendered together, at the first of them.
-        cache: dict[str, object] = {"compound_eyes": [n for n in names if n in self._compound_eyes]}
+        # The compound eyes asked for are rendered together, at the first of them; so are the cameras.
+        cache: dict[str, object] = {"compound_eyes": [n for n in names if n in self._compound_eyes],
+                                    "camera_names": [n for n in names if n in self._cameras]}
         return {name: np.array(self._sensor(name, cache), dtype=float)[None] for name in names}
 
-    def sampler(self, names: Iterable[str]):
-        """A reader of ``names`` for every control step: checked once here, then each call returns their
-        values (without the batch dimension) flattened and concatenated into one float array (J + C values
-        for ``("joint_pos", "contact_load")``), read as :meth:`read` reads them. For hooks that sample the
-        same sensors at every step (an odometer, a logger), where ``read``'s checks and dict cost more
-        than the values. The function belongs to this loaded model: make a new one after ``load``.
+    def sampler(self, names: Iterable[str]) -> Sampler:
+        """A reader of ``names`` for every control step (:class:`neuronav.engine.sampling.Sampler`): checked
+        once here, then each call returns their values (without the batch dimension) flattened and
+        concatenated into one float array (J + C values for ``("joint_pos", "contact_load")``), read as
+        :meth:`read` reads them; ``record()`` keeps the current values and ``drain()`` gives those kept as
+        rows (T, J + C). For hooks that sample the same sensors at every step (an odometer, a logger), where
+        ``read``'s checks and dict cost more than the values. It belongs to this loaded model: make a new
+        one after ``load``.
         """
         self._require()
         names = tuple(self._check_read(names))
         return self._sampler(names)
 
-    def _sampler(self, names: tuple[str, ...]):
-        """The engine's sampling function of :meth:`sampler` (an engine may give a faster one)."""
+    def _sampler(self, names: tuple[str, ...]) -> Sampler:
+        """The engine's :class:`Sampler` of :meth:`sampler` (an engine may give a faster one)."""
         def sample() -> np.ndarray:
             cache: dict[str, object] = {}
             return np.concatenate([np.ravel(self._sensor(name, cache)) for name in names]).astype(float, copy=False)
-        return sample
+        return Sampler(sample)
 
     def _sensor(self, name: str, cache: dict) -> np.ndarray:
         """One sensor, from the engine's reports (``cache`` holds the root's state within one read)."""
@@ -439,7 +443,9 @@ class ArticulatedBackend(BackendBase):
         if name == "wind":
             return self._wind_at(self._site_positions("wind"))
         if name in self._cameras:
-            return grey(self._render_camera(name))
+            if name not in cache.get("cameras", {}):
+                cache["cameras"] = self._render_cameras(cache.get("camera_names") or [name])
+            return grey(cache["cameras"][name])
         if name in self._compound_eyes:
             if name not in cache.get("compound", {}):
                 cache["compound"] = self._read_compound_eyes(cache.get("compound_eyes") or [name])
@@ -561,10 +567,38 @@ class ArticulatedBackend(BackendBase):
         if spec is None:
             raise PortError(f"{self.engine} backend has no camera {camera!r}; available: "
                             f"{', '.join(['follow', *self._cameras])}")
+        return self._render_cameras([camera])[camera]
+
+    def _render_cameras(self, names: list[str]) -> dict[str, np.ndarray]:
+        """Body cameras ``names`` read together: the views of those that see the body alike rendered in one
+        call (one scene update and one read of the buffer on MuJoCo: both eyes of a binocular read), each
+        camera's image composed from its own views. The same images as one camera at a time (culling is
+        exact); where the views do not fit the engine's buffer together, one camera at a time."""
+        images: dict[str, np.ndarray] = {}
+        for sees_body in (False, True):
+            group = [name for name in names if self._cameras[name].sees_body == sees_body]
+            layouts = [self._camera_layout(name) for name in group]
+            together = len(group) > 1 and self._views_fit([views for _, _, views, _ in layouts])
+            for batch in ([list(zip(group, layouts))] if together else [[item] for item in zip(group, layouts)]):
+                rendered = self._render_views([view for _, (_, _, views, _) in batch for view in views], sees_body)
+                start = 0
+                for name, (spec, rotation, views, lookup) in batch:
+                    images[name] = compose_image(spec, rotation, rendered[start:start + len(views)],
+                                                 self.world.appearance, lookup)
+                    start += len(views)
+        return images
+
+    def _camera_layout(self, camera: str):
+        """A body camera's spec, frame rotation, views at its pose now, and cube lookup (spherical cameras)."""
+        spec = self._cameras[camera]
         eye, rotation = self._camera_frame(spec)
         lookup = cube_lookup(spec) if spec.projection == "spherical" else None  # built once per camera, kept
-        views = camera_views(spec, eye, rotation, lookup)
-        return compose_image(spec, rotation, self._render_views(views, spec.sees_body), self.world.appearance, lookup)
+        return spec, rotation, camera_views(spec, eye, rotation, lookup), lookup
+
+    def _views_fit(self, view_lists: list[list]) -> bool:
+        """Whether the views of several cameras can be rendered in one call (the engine's buffer); an engine
+        that renders view by view need not batch them (False)."""
+        return False
 
     def _read_compound_eyes(self, names: list[str]) -> dict[str, np.ndarray]:
         """Compound eyes ``names`` (M, 2) each: their cube faces rendered in one call in the spectral colouring,

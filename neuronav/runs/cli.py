@@ -1,4 +1,4 @@
-"""The ``neuronav`` command line: list, run, compare, sweep.
+"""The ``neuronav`` command line: list, run, compare, sweep, report.
 
 Exit status
     0: every trial ran (a trial whose ant does not reach home has ``success`` 0; it still ran).
@@ -9,8 +9,9 @@ Exit status
     a backend that is empty, unknown, unsupported or not installed, a bad ``--set``/``--grid``/
     ``--config`` key or value, settings the scenario cannot run on that backend, more trials than
     the scenario allows, a scheduler address that is not a Dask scheduler or cannot be reached, a
-    run folder that may not be written into, or one that holds results of other settings. One line
-    on stderr, no traceback.
+    run folder that may not be written into, or one that holds results of other settings; for
+    ``report``, a folder that is not a run, compare or sweep folder, or a ``--out`` that cannot be
+    written. One line on stderr, no traceback.
     130: interrupted (Ctrl-C, however many: the run stops at once and its workers are killed); the
     finished trials are kept.
 
@@ -94,6 +95,15 @@ def _parser() -> argparse.ArgumentParser:
     sweep.add_argument("--grid", action="append", required=True, metavar="KEY=V1,V2",
                        help="a setting and its values (repeatable; the grid is their product)")
     parallel(sweep, "local worker processes (default: the available CPUs)")
+
+    report = commands.add_parser("report", help="one self-contained HTML page of run, compare or sweep folders")
+    report.add_argument("folders", nargs="+", metavar="RUN_DIR", help="folders written by run, compare or sweep")
+    report.add_argument("--out", metavar="FILE", help="the HTML file (default: RUN_DIR/report.html; several "
+                        "folders: ./report.html)")
+    report.add_argument("--replays", type=int, default=20, metavar="N",
+                        help="trials replayed per run at most (of those with recorded time series)")
+    for p in (run, compare, sweep):
+        p.add_argument("--report", action="store_true", help="also write report.html into the run folder")
     return parser
 
 
@@ -120,6 +130,8 @@ def _command(args, argv: list[str]) -> int:
     try:
         if args.command == "list":
             return _list()
+        if args.command == "report":
+            return _report(args.folders, args.out, args.replays)
         if args.command == "run":
             summary = run_scenario(args.scenario, backend=args.backend, trials=args.trials, seed=args.seed,
                                    overrides=args.overrides, out_dir=args.out, video=args.video,
@@ -128,6 +140,8 @@ def _command(args, argv: list[str]) -> int:
                                    scheduler=args.scheduler, chunk_size=args.chunk_size,
                                    progress=args.progress, figures=args.figures)
             _print_summary(summary)
+            if args.report:
+                _report([summary["out_dir"]])
             return _failures(summary["failed_trials"], summary["trials"], summary.get("first_error", ""))
         if args.command == "compare":
             return _compare(args, argv)
@@ -150,6 +164,16 @@ def _command(args, argv: list[str]) -> int:
         interrupts.interrupt_seen()
         sys.stderr.write(INTERRUPTED)
         return 130
+
+
+def _report(folders: list, out: str | None = None, replays: int = 20) -> int:
+    """Write the HTML report of ``folders`` (:mod:`neuronav.runs.report`); print where it went."""
+    from neuronav.runs.report import write_report
+
+    if replays < 0:
+        raise ConfigError(f"--replays must be 0 or more, got {replays}")
+    print(f"report: {write_report(folders, out, max_replays=replays)}")
+    return 0
 
 
 def _failures(failed: int, total: int, first: str) -> int:
@@ -249,6 +273,8 @@ def _compare(args: argparse.Namespace, argv: list[str]) -> int:
     _compare_statistics(args.scenario, plans, summaries, out / "compare.json")
     print("\n".join(lines))
     print(f"comparison: {out / 'compare.md'}")
+    if args.report:
+        _report([out])
     failed = sum(s["failed_trials"] for s in summaries.values())
     first = next((f"{b} {s['first_error']}" for b, s in summaries.items() if s.get("first_error")), "")
     return _failures(failed, sum(s["trials"] for s in summaries.values()), first)
@@ -311,6 +337,8 @@ def _sweep(args: argparse.Namespace, argv: list[str]) -> int:
     print(f"sweep: {summary['total_trials']} trials over {len(summary['points'])} points "
           f"({summary['failed_trials']} failed{f', {resumed} already done' if resumed else ''}) "
           f"in {summary['wall_time_s']:.2f} s: {summary['out_dir']}")
+    if args.report:
+        _report([summary["out_dir"]])
     return _failures(summary["failed_trials"], summary["total_trials"], summary.get("first_error", ""))
 
 

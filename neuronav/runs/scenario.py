@@ -91,6 +91,12 @@ class Scenario(ABC):
         """
         return None
 
+    def check_video(self, config: Any, backend: str) -> None:
+        """Raise :class:`neuronav.errors.ConfigError` when ``--video`` cannot film ``config`` on ``backend``
+        (a batched protocol with no agent loop to film); called, like :meth:`check`, before any trial runs.
+        The default films whatever a scenario with ``records_video`` runs."""
+        return None
+
     def estimate_bytes(self, config: Any, trials: int) -> int | None:
         """Memory (bytes) one batch of ``trials`` trials of ``config`` needs, or None when unknown.
 

@@ -96,7 +96,7 @@ from neuronav.runs.rundir import (
 )
 from neuronav.runs.scenario import Scenario
 from neuronav.runs.sweep_figures import METRICS_FIGURE, build_metrics_figure, metrics_figure, plotted_metrics  # noqa: F401
-from neuronav.runs.trials import can_render, check_backend, check_counts, load_scenario
+from neuronav.runs.trials import can_film, check_backend, check_counts, load_scenario
 
 
 def _check_positive(name: str, value: Any, allow_none: bool = False) -> None:
@@ -324,13 +324,14 @@ def _configs(instance: Scenario, grid: Any, overrides: Any, config_file: Any, is
     return base_config, parsed_grid, points
 
 
-def _check_video(instance: Scenario, name: str, backend: str, is_sweep: bool, scheduler: Any) -> None:
+def _check_video(instance: Scenario, name: str, backend: str, is_sweep: bool, scheduler: Any, config: Any) -> None:
     if is_sweep:
         raise ConfigError("--video is for neuronav run, not for sweeps")
-    if not can_render(registry.load("backend", backend)):
-        raise ConfigError(f"--video needs a backend with cameras; {backend!r} has none")
+    if not can_film(registry.load("backend", backend)):
+        raise ConfigError(f"--video needs a backend that films; {backend!r} cannot")
     if not instance.records_video:
         raise ConfigError(f"scenario {name!r} does not record video")
+    instance.check_video(config, backend)
     if scheduler is not None:
         raise ConfigError("--video cannot be combined with --scheduler (the video is written by a worker)")
 
@@ -380,7 +381,7 @@ def plan(
         instance.check(point.config, backend)
     _check_memory(instance, points, trials, workers, chunk_size, is_sweep)
     if video:
-        _check_video(instance, name, backend, is_sweep, scheduler)
+        _check_video(instance, name, backend, is_sweep, scheduler, base_config)
     default_out = Path("runs") / (f"sweep-{name}" if is_sweep else f"{name}-{backend}-seed{seed}")
     out = check_out_dir(default_out if out_dir is None else out_dir, "sweep" if is_sweep else "run")
     command = list(command) if command is not None else list(sys.argv)

@@ -222,6 +222,12 @@ def can_render(backend_class: type) -> bool:
     return bool(getattr(backend_class, "can_render", True))
 
 
+def can_film(backend_class: type) -> bool:
+    """Whether ``--video`` can film on a backend class: it renders cameras (:func:`can_render`), or it draws
+    its ``"follow"`` view itself (a class attribute ``films_follow``: the kinematic backend films from above)."""
+    return bool(getattr(backend_class, "films_follow", False)) or can_render(backend_class)
+
+
 def _failed(trial: int, seed: int, error: BaseException) -> dict:
     message = str(error).splitlines()[0] if str(error) else type(error).__name__
     return {"trial": trial, "seed": seed, "success": False, "status": "failed",

@@ -11,7 +11,8 @@ ground winning each ray.
 
 Level eyes (the eye's up along the world's: every kinematic agent) read the ground and sky from a table made
 once per eye height and test an upright object (cylinder, cone, sphere) only on the rays inside its azimuth
-wedge and elevation band in the eye's frame; tilted eyes, and boxes, only on the tiles of ommatidia, then the
+wedge and elevation band in the eye's frame (the rays kept in bands of 2° of elevation, each sorted by
+azimuth: a search per band finds them); tilted eyes, and boxes, only on the tiles of ommatidia, then the
 ommatidia, whose cones of rays meet the object's bounding sphere. Both give the same values. Values do not
 depend on the batch: an agent reads the same alone or among a thousand. Agreement with the acceptance
 integral over a rendered panorama (:func:`neuronav.senses.compound_eye.sampling_matrix`) and the speed:
@@ -30,6 +31,15 @@ from neuronav.senses.raycast import _INTERSECT, MAX_RAYS_PER_CHUNK, bounding_rad
 from neuronav.senses.vision import FAR_M, NEAR_M
 from neuronav.spec.body import CompoundEye
 from neuronav.spec.world import OBJECT_SIZES, World
+
+# A level eye's rays in bands of this much elevation, found by one sorted key (:meth:`CompoundEyeReader._band_index`).
+_BAND_RAD = math.radians(2.0)
+_BAND_KEY = 16.0  # > 4π: one band's keys never reach the next band's
+# Rays a level eye intersects per batch: its arrays (0.5 MB each) stay in the cache.
+_CANDIDATES_PER_BATCH = 1 << 16
+# Object-rays (objects x rays) per chunk of agents read together (between 1 and 4 MAX_RAYS_PER_CHUNK rays).
+_OBJECT_RAYS_PER_CHUNK = 1 << 26
+_SHAPE_CODE = {shape: code for code, shape in enumerate(OBJECT_SIZES)}
 
 
 def ray_pattern(eye: CompoundEye, rays_per_ommatidium: int = 7) -> tuple[np.ndarray, np.ndarray]:
@@ -69,6 +79,12 @@ class CompoundEyeReader:
     eye : CompoundEye
     rays_per_ommatidium : int
         1 or 7 (:func:`ray_pattern`).
+
+    Attributes
+    ----------
+    rays_tested, rays_hit : int
+        The last :meth:`read`'s rays intersected with an object, and those that hit one (what its time among
+        objects grows with: ``benchmarks/compound_eye_read.py``).
     """
 
     def __init__(self, world: World, eye: CompoundEye, rays_per_ommatidium: int = 7) -> None:
@@ -77,6 +93,7 @@ class CompoundEyeReader:
         if not isinstance(eye, CompoundEye):
             raise ConfigError(f"compound eye reader: expected a CompoundEye, got {type(eye).__name__}")
         self.eye = eye
+        self.rays_tested = self.rays_hit = 0
         rays, self.weights = ray_pattern(eye, rays_per_ommatidium)
         self.n_ommatidia, self.n_rays = rays.shape[0], rays.shape[1]
         self._rays = rays.reshape(-1, 3)  # (M S, 3), eye frame
@@ -91,8 +108,13 @@ class CompoundEyeReader:
         for k, obj in enumerate(self.objects):
             self._sizes[k, :len(obj.size_m)] = obj.size_m
         shapes = np.array([obj.shape for obj in self.objects])
+        self._shape_code = np.array([_SHAPE_CODE[obj.shape] for obj in self.objects], np.int64)
         self._by_shape = {shape: np.flatnonzero(shapes == shape) for shape in OBJECT_SIZES if (shapes == shape).any()}
         self._level_tables: dict[float, np.ndarray] = {}
+        self._ray_backgrounds: dict[float, np.ndarray] = {}
+        # Each ray's weight and ommatidium (rays run ommatidium by ommatidium).
+        self._ray_weight = np.tile(self.weights, self.n_ommatidia)
+        self._ray_ommatidium = np.repeat(np.arange(self.n_ommatidia), self.n_rays)
         self._tiles()
         # Level eyes (the kinematic agents): upright objects (all but boxes) are found by azimuth wedge and
         # elevation band in the eye's own frame, the rays sorted by azimuth once (and again 2π on, for wedges
@@ -101,11 +123,24 @@ class CompoundEyeReader:
         self._horizontal_m = np.array([float(obj.size_m[0]) for obj in self.objects]).reshape(-1)
         self._half_height_m = np.array([float(obj.size_m[0] if obj.shape == "sphere" else obj.size_m[-1])
                                         for obj in self.objects]).reshape(-1)
-        azimuth = np.arctan2(self._rays[:, 1], self._rays[:, 0])
         self._ray_elevation = np.arcsin(np.clip(self._rays[:, 2], -1.0, 1.0))
-        order = np.argsort(azimuth, kind="stable")
-        self._azimuth_ext = np.concatenate([azimuth[order], azimuth[order] + 2.0 * np.pi])
-        self._order_ext = np.concatenate([order, order])
+        self._band_index()
+
+    def _band_index(self) -> None:
+        """Sort the rays into bands of elevation (eye frame), each sorted by azimuth and repeated 2π on (for
+        wedges across ±π), under one increasing key: ``band * _BAND_KEY + azimuth + π``. A level eye's upright
+        object then costs a search per band its elevation range meets, and only the rays inside its wedge."""
+        azimuth = np.arctan2(self._rays[:, 1], self._rays[:, 0])
+        band = np.floor((self._ray_elevation + np.pi / 2) / _BAND_RAD).astype(np.int64)
+        self._n_bands = int(band.max()) + 1
+        order = np.lexsort((azimuth, band))
+        counts = np.bincount(band, minlength=self._n_bands)
+        keys, rays = [], []
+        for b, (first, size) in enumerate(zip(np.cumsum(counts) - counts, counts)):
+            members = order[first:first + size]
+            keys.append(b * _BAND_KEY + np.pi + np.concatenate([azimuth[members], azimuth[members] + 2.0 * np.pi]))
+            rays.append(np.concatenate([members, members]))
+        self._band_key, self._band_ray, self._band_count = np.concatenate(keys), np.concatenate(rays), counts
 
     def _tiles(self) -> None:
         """Group ommatidia into bins of the eye's azimuth and elevation, each with a bounding cone of rays."""
@@ -159,6 +194,7 @@ class CompoundEyeReader:
         if not (np.isfinite(eyes).all() and np.isfinite(rotations).all() and math.isfinite(yaw)):
             raise ConfigError("compound eye reader: eye positions, rotations and the scene yaw must be finite")
         n, m = eyes.shape[0], self.n_ommatidia
+        self.rays_tested = self.rays_hit = 0
         out = np.empty((n, m, 2))
         level = np.abs(rotations[:, 2, :] - np.array([0.0, 0.0, 1.0])).max(axis=1) <= 1e-12 if n else np.ones(0, bool)
         heights = np.unique(eyes[level, 2])
@@ -172,8 +208,11 @@ class CompoundEyeReader:
             rows = general[start:start + max(1, MAX_RAYS_PER_CHUNK // self._rays.shape[0])]
             out[rows] = self._background(eyes[rows, 2], self._world_z(rotations[rows], np.arange(self._rays.shape[0])))
         if self.objects and n:
-            # In chunks of agents: the merge keeps a few arrays of one entry per ray of each agent.
-            chunk = max(1, 4 * MAX_RAYS_PER_CHUNK // self._rays.shape[0])
+            # In chunks of agents: the merge keeps a few arrays of one entry per ray of each agent; among many
+            # objects smaller chunks keep them nearer the cache (1000 agents in the 40-tree forest: 0.89 s per
+            # read in chunks of 116 agents, 1.16 s in chunks of 464), among few the chunks' own cost stays small.
+            rays = int(np.clip(_OBJECT_RAYS_PER_CHUNK // len(self.objects), MAX_RAYS_PER_CHUNK, 4 * MAX_RAYS_PER_CHUNK))
+            chunk = max(1, rays // self._rays.shape[0])
             for start in range(0, n, chunk):
                 rows = slice(start, min(n, start + chunk))
                 self._objects(eyes[rows], rotations[rows], yaw, out[rows], level[rows])
@@ -225,7 +264,7 @@ class CompoundEyeReader:
         for agents, objects in ((tilted, np.ones(len(self.objects), bool)), (flat, ~self._upright)):
             if agents.size and objects.any():
                 self._tile_hits(agents, objects, eyes_local, rot_local, eyes, keys, ts, owners)
-        self._merge(keys, ts, owners, eyes, rotations, out)
+        self._merge(keys, ts, owners, eyes, rotations, out, level)
 
     def _wedge_hits(self, agents: np.ndarray, eyes_local: np.ndarray, rot_local: np.ndarray, eyes: np.ndarray,
                     keys: list, ts: list, owners: list) -> None:
@@ -250,44 +289,58 @@ class CompoundEyeReader:
         first = np.where(inside, -np.pi, np.mod(np.arctan2(centre[..., 1], centre[..., 0]) - width + np.pi,
                                                 2.0 * np.pi) - np.pi)
         pair_agent, pair_object = np.nonzero(distance - reach <= FAR_M)
-        start = np.searchsorted(self._azimuth_ext, first[pair_agent, pair_object], side="left")
-        stop = np.searchsorted(self._azimuth_ext, first[pair_agent, pair_object] + 2.0 * width[pair_agent, pair_object],
-                               side="right")
-        stop = np.minimum(stop, start + self._rays.shape[0])
-        counts = stop - start
+        low_rad, high_rad = bottom[pair_agent, pair_object] - 1e-9, top[pair_agent, pair_object] + 1e-9
+        left_rad, span_rad = first[pair_agent, pair_object], 2.0 * width[pair_agent, pair_object]
+        # (pair, band) entries: each pair's wedge searched in every band its elevation range meets.
+        last_band = self._n_bands - 1
+        band0 = np.clip(np.floor((low_rad + np.pi / 2) / _BAND_RAD), 0, last_band).astype(np.int64)
+        band1 = np.clip(np.floor((high_rad + np.pi / 2) / _BAND_RAD), 0, last_band).astype(np.int64)
+        bands = band1 - band0 + 1
+        entry_pair = np.repeat(np.arange(bands.size), bands)
+        band = band0[entry_pair] + np.arange(entry_pair.size) - np.repeat(np.cumsum(bands) - bands, bands)
+        base = band * _BAND_KEY + np.pi + left_rad[entry_pair]
+        start = np.searchsorted(self._band_key, base, side="left")
+        stop = np.searchsorted(self._band_key, base + span_rad[entry_pair], side="right")
+        counts = np.minimum(stop, start + self._band_count[band]) - start
         ends = np.cumsum(counts)
-        limit = 4 * MAX_RAYS_PER_CHUNK
+        source = start - (ends - counts)  # + a ray's place in the flat list of candidates: its slot in _band_ray
+        # Per pair: the ray origin from the object's centre (eye frame), the object's sizes, owner and eye height,
+        # and the key of the agent's first ray.
+        pair_origin = [np.ascontiguousarray(-centre[pair_agent, pair_object, j]) for j in range(3)]
+        pair_owner = objects[pair_object]
+        pair_size = [self._sizes[pair_owner, j] for j in range(3)]
+        pair_code = self._shape_code[pair_owner]
+        pair_height = eyes[agents[pair_agent], 2]
+        pair_key = agents[pair_agent].astype(np.int64) * self._rays.shape[0]
         begin = 0
-        while begin < counts.size:
-            end = int(np.searchsorted(ends, (ends[begin - 1] if begin else 0) + limit, side="right"))
-            end = max(end, begin + 1)
-            chunk = slice(begin, end)
-            pair = np.repeat(np.arange(begin, end), counts[chunk])
-            before = np.repeat(ends[chunk] - counts[chunk], counts[chunk])
-            ray = self._order_ext[start[pair] + np.arange(pair.size) - (before - (ends[begin - 1] if begin else 0))]
-            i, k = pair_agent[pair], pair_object[pair]
+        while begin < counts.size:  # in batches of about _CANDIDATES_PER_BATCH rays
+            offset = int(ends[begin - 1]) if begin else 0
+            end = max(int(np.searchsorted(ends, offset + _CANDIDATES_PER_BATCH, side="right")), begin + 1)
+            entry = np.repeat(np.arange(begin, end), counts[begin:end])
+            ray = self._band_ray[source[entry] + offset + np.arange(entry.size)]
+            pair = entry_pair[entry]
             elevation = self._ray_elevation[ray]
-            keep = (elevation >= bottom[i, k] - 1e-9) & (elevation <= top[i, k] + 1e-9)
-            ray, i, k = ray[keep], i[keep], k[keep]
-            for shape, index in self._by_shape.items():
+            keep = (elevation >= low_rad[pair]) & (elevation <= high_rad[pair])
+            ray, pair = ray[keep], pair[keep]
+            code = pair_code[pair]
+            for shape in self._by_shape:
                 if shape == "box":
                     continue
-                mine = np.isin(objects[k], index)
+                mine = code == _SHAPE_CODE[shape]
                 if not mine.any():
                     continue
-                ray_s, i_s, k_s = ray[mine], i[mine], k[mine]
-                obj = objects[k_s]
+                ray_s, pair_s = ray[mine], pair[mine]
                 d = self._rays[ray_s]
                 direction = (d[:, 0], d[:, 1], d[:, 2])
-                origin = tuple(-centre[i_s, k_s, j] for j in range(3))
-                size = [self._sizes[obj, j] for j in range(OBJECT_SIZES[shape])]
+                origin = tuple(part[pair_s] for part in pair_origin)
+                size = [part[pair_s] for part in pair_size[:OBJECT_SIZES[shape]]]
                 hit_t = _INTERSECT[shape](origin, direction, size)
-                a = agents[i_s]
-                hit_t = np.where(hit_t < self._ground_t(eyes[a, 2], d[:, 2]), hit_t, np.inf)
-                hit = np.isfinite(hit_t)
-                keys.append(a[hit].astype(np.int64) * self._rays.shape[0] + ray_s[hit])
+                hit_t = np.where(hit_t < self._ground_t(pair_height[pair_s], d[:, 2]), hit_t, np.inf)
+                hit = np.flatnonzero(np.isfinite(hit_t))
+                self.rays_tested, self.rays_hit = self.rays_tested + hit_t.size, self.rays_hit + hit.size
+                keys.append(pair_key[pair_s[hit]] + ray_s[hit])
                 ts.append(hit_t[hit])
-                owners.append(obj[hit])
+                owners.append(pair_owner[pair_s[hit]])
             begin = end
 
     def _tile_hits(self, agents: np.ndarray, objects: np.ndarray, eyes_local: np.ndarray, rot_local: np.ndarray,
@@ -334,21 +387,34 @@ class CompoundEyeReader:
                 # An object behind the ground (seen through it) is no hit.
                 hit_t = np.where(hit_t < self._ground_t(eyes[a, 2, None], direction[2]), hit_t, np.inf)
                 p, col = np.nonzero(np.isfinite(hit_t))
+                self.rays_tested, self.rays_hit = self.rays_tested + hit_t.size, self.rays_hit + p.size
                 keys.append(a[p].astype(np.int64) * self._rays.shape[0] + ray[p, col])
                 ts.append(hit_t[p, col])
                 owners.append(k[p])
+    def _ray_background(self, height: float) -> np.ndarray:
+        """What each ray of a level eye at ``height`` sees without objects (M S, 2): the ground or the sky."""
+        table = self._ray_backgrounds.get(height)
+        if table is None:
+            under = np.isfinite(self._ground_t(height, self._rays[:, 2]))
+            table = self._ray_backgrounds[height] = np.where(under[:, None], self._ground, self._sky)
+        return table
+
     def _merge(self, keys: list, ts: list, owners: list, eyes: np.ndarray, rotations: np.ndarray,
-               out: np.ndarray) -> None:
+               out: np.ndarray, level: np.ndarray) -> None:
         """The nearest hit of each ray (key: agent * rays + ray) replaces its background in ``out``."""
         if not keys:
             return
         key, t, owner = np.concatenate(keys), np.concatenate(ts), np.concatenate(owners)
         if key.size == 0:
             return
-        # The nearest hit of each ray: few hits are sorted by (key, t); many go through an array of one
-        # entry per ray (the least t per key, then the owner of a hit at that t).
+        # The nearest hit of each ray: in a world of one object each hit is its ray's (an object is tested once
+        # on a ray); else few hits are sorted by (key, t); many go through an array of one entry per ray (the
+        # least t per key, then the owner of a hit at that t). (Decided by the world alone, so that an agent's
+        # hits add up in the same order whatever the batch.)
         rays = out.shape[0] * self._rays.shape[0]
-        if key.size < rays // 16:
+        if len(self.objects) == 1:
+            pass
+        elif key.size < rays // 16:
             order = np.lexsort((t, key))
             key, owner = key[order], owner[order]
             first = np.ones(key.size, bool)
@@ -363,13 +429,18 @@ class CompoundEyeReader:
             key = np.flatnonzero(slot >= 0)
             owner = slot[key]
         agent, ray = np.divmod(key, self._rays.shape[0])
-        d, r = self._rays[ray], rotations[agent]
-        dz = r[:, 2, 0] * d[:, 0] + r[:, 2, 1] * d[:, 1] + r[:, 2, 2] * d[:, 2]
-        under = np.isfinite(self._ground_t(eyes[agent, 2], dz))
-        background = np.where(under[:, None], self._ground, self._sky)
-        ommatidium, sample = np.divmod(ray, self.n_rays)
-        change = self.weights[sample][:, None] * (self._values[owner] - background)
-        np.add.at(out.reshape(-1, 2), agent * self.n_ommatidia + ommatidium, change)
+        if level.all() and (eyes[:, 2] == eyes[0, 2]).all():  # level eyes at one height: each ray's from a table
+            background = self._ray_background(float(eyes[0, 2]))[ray]
+        else:
+            d, up = self._rays[ray], rotations[:, 2, :][agent]  # the world z row of each hit's agent
+            dz = up[:, 0] * d[:, 0] + up[:, 1] * d[:, 1] + up[:, 2] * d[:, 2]
+            under = np.isfinite(self._ground_t(eyes[agent, 2], dz))
+            background = np.where(under[:, None], self._ground, self._sky)
+        change = self._ray_weight[ray][:, None] * (self._values[owner] - background)
+        place = 2 * (agent * self.n_ommatidia + self._ray_ommatidium[ray])
+        flat = out.reshape(-1)  # out is contiguous: a view; one channel at a time (ufunc.at is fastest in 1-D)
+        np.add.at(flat, place, change[:, 0])
+        np.add.at(flat, place + 1, change[:, 1])
 
     def _seen(self, eyes_local: np.ndarray, rot_local: np.ndarray) -> np.ndarray:
         """Whether a tile's cone of rays can meet an object's bounding sphere, bool (O, n, T) (as

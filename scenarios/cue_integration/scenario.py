@@ -37,6 +37,7 @@ from neuronav import registry
 from neuronav.angles import angle_difference_rad
 from neuronav.config import field
 from neuronav.engine.loop import Clocks, integer_ratio
+from neuronav.engine.video_overlay import EyeInset, Marker, VideoContent
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
@@ -47,7 +48,7 @@ from neuronav.scenarios.route_following.compound_view import EYE_CHANNELS, EYE_S
 from neuronav.scenarios.trial_loop import run_loop
 from neuronav.scenarios.variability import variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
-from neuronav.scenarios.worlds.scenes import forest, vision_appearance
+from neuronav.scenarios.worlds.scenes import forest, pack_world, vision_appearance, world_record
 from neuronav.spec.world import Ground, PointAgents, World
 
 CUE_MODES = ("both", "pi", "vision")
@@ -197,12 +198,24 @@ class CueEyes:
         return sensed, (self.layout(sensed) if self.layout else sensed["panorama"])
 
 
+def snapshot_points_m(config: CueIntegrationConfig) -> np.ndarray:
+    """Where the stored views were taken (K, 2): ``snapshots`` points on the circle about the nest."""
+    angles = 2.0 * np.pi * np.arange(config.snapshots) / config.snapshots
+    return config.snapshot_radius_m * np.stack([np.sin(angles), np.cos(angles)], axis=1)
+
+
+def cue_world_record(config: CueIntegrationConfig) -> dict[str, np.ndarray]:
+    """The world as a trial's time series record it (the same in every trial): the forest ``objects_m``,
+    ``nest_m`` and the stored views' points ``snapshots_m``."""
+    return world_record(cue_world(config), nest_m=(0.0, 0.0), snapshots_m=snapshot_points_m(config))
+
+
 def take_snapshots(config: CueIntegrationConfig, world: World) -> np.ndarray:
     """Skyline views (K, R, W) from ``snapshots`` points on the circle, each facing the nest."""
     from neuronav.brains.visual_homing import skyline_view
 
     angles = 2.0 * np.pi * np.arange(config.snapshots) / config.snapshots
-    positions = config.snapshot_radius_m * np.stack([np.sin(angles), np.cos(angles)], axis=1)
+    positions = snapshot_points_m(config)
     eyes = CueEyes(config)
     engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
     with engine:
@@ -303,7 +316,10 @@ def physics_trial(config: CueIntegrationConfig, backend_name: str, snapshots: np
 
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
     loop, final, _ = run_loop(engine, world, body, gait, clocks, steer, heading_rad=setup["heading_rad"], seed=seed,
-                              duration_s=config.timeout_s, until=at_nest, video_path=video_path)
+                              duration_s=config.timeout_s, until=at_nest, video_path=video_path,
+                              video_content=VideoContent(
+                                  markers=(Marker("nest", tuple(-release), config.nest_radius_m),),
+                                  insets=(EyeInset(("panorama",), "panorama", height_px=144),)))
     path = np.array([*positions, final + release])
     reached = bool(np.hypot(*(final + release)) <= config.nest_radius_m)
     log = {k: np.array(v, float)[:, 0] for k, v in brain.log.items()}
@@ -430,6 +446,12 @@ class CueIntegration(Scenario):
                                         labels={c: f"{mode}_{c:g}" for c in conflicts}))
         return result
 
+    def check_video(self, config: CueIntegrationConfig, backend: str) -> None:
+        """The kinematic trials run as one batch of point agents, with no agent loop to film."""
+        if backend == "kinematic":
+            raise ConfigError("--video films cue-integration on mujoco, dm_control or pybullet; on kinematic its "
+                              "trials run as one batch with no agent loop to film")
+
     def run(self, config: CueIntegrationConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
         if backend == "kinematic":
@@ -442,6 +464,7 @@ class CueIntegration(Scenario):
                 rows.append(dict(row, trial=i, seed=seed + i))
                 logs.append(log)
             timeseries = pack_logs(logs)
+        timeseries.update(pack_world([cue_world_record(config)] * trials))
         return ScenarioResult(trials=rows, timeseries=timeseries, aggregates=self.aggregate(rows, config),
                               simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
 

@@ -207,6 +207,9 @@ class Locomotion(Scenario):
             rows.append(dict(row, trial=i, seed=seed + i))
             series.append(recorded)
         timeseries = {key: np.stack([s[key] for s in series]) for key in series[0]}
+        if config.terrain == "wall":  # the wall's foot, 1 m either side of the ant's line (a report draws it)
+            distance_m = TERRAINS["wall"]["wall_distance_m"]
+            timeseries["wall_line_m"] = np.tile([[distance_m, -1.0], [distance_m, 1.0]], (trials, 1, 1))
         return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=config.duration_s)
 
     def figures(self, result: ScenarioResult, config: LocomotionConfig, out_dir: Path) -> list[Path]:

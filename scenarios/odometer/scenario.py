@@ -55,6 +55,7 @@ from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S
+from neuronav.scenarios.worlds.scenes import pack_world
 from neuronav.spec.world import Ground, PointAgents, World
 
 LEG_CONDITIONS = MANIPULATIONS  # normal, stilts, stumps
@@ -352,7 +353,10 @@ class Odometer(Scenario):
         self.check(config, backend)
         rows, logs = trials_one_by_one(lambda s, video: odometer_trial(config, backend, s, video), trials, seed,
                                        video_path)
-        return ScenarioResult(trials=rows, timeseries=pack_logs(logs), aggregates=self.aggregate(rows, config),
+        timeseries = pack_logs(logs)
+        world = {"nest_m": (0.0, 0.0), "feeder_m": (0.0, config.channel_m)}  # the channel's ends, every trial
+        timeseries.update(pack_world([{k: np.array(v) for k, v in world.items()}] * trials))
+        return ScenarioResult(trials=rows, timeseries=timeseries, aggregates=self.aggregate(rows, config),
                               simulated_time_s=float(np.mean([r["trial_time_s"] for r in rows])))
 
     def figures(self, result: ScenarioResult, config: OdometerConfig, out_dir: Path) -> list[Path]:

@@ -35,6 +35,7 @@ from neuronav.bodies.antennae import AntennaSweep, AntennaYawHook, SweptAntennae
 from neuronav.brains.trail_following import K_D, SENSOR_SCALE, T_D, T_O, TrailFollowing
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
+from neuronav.engine.video_overlay import OdourInset, VideoContent
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
@@ -44,7 +45,7 @@ from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_
 from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, jitter_start, normal_per_trial, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
-from neuronav.scenarios.worlds.scenes import vision_appearance
+from neuronav.scenarios.worlds.scenes import pack_world, vision_appearance, world_record
 from neuronav.senses.chemistry import OdourScene
 from neuronav.senses.odour import TRAIL_WIDTHS_M, PolylineTrail
 from neuronav.spec.world import Ground, World
@@ -247,9 +248,11 @@ def trail_trial(config: OdourTrailConfig, backend_name: str, seed: int, video_pa
     start_m, heading_rad = start_pose(config, seed)
     loop, final, wall_s = run_loop(engine, trail_world(trail), body, gait, clocks, brain, heading_rad=heading_rad,
                                    seed=seed, duration_s=config.timeout_s, until=arrived, hooks=hooks,
-                                   video_path=video_path, position_m=tuple(start_m))
+                                   video_path=video_path, position_m=tuple(start_m),
+                                   video_content=VideoContent(insets=(OdourInset(full_scale=1.0),)))
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     log["position_m"] = np.vstack([log["position_m"], final[None]])
+    log["world"] = world_record(trail_world(trail), finish_line_m=end_line_m(trail, config))
     return trail_metrics(log, config, trail, mode, loop.time_s, wall_s), log
 
 
@@ -348,6 +351,9 @@ class OdourTrail(Scenario):
 
 
 def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
-    """Per-cycle logs of unequal length as NaN-padded arrays (trials, cycles, ...)."""
-    return pack_cycle_logs(logs, ("time_s", "heading_rad", "odour_L", "odour_R", "centre_odour", "turn",
-                                  "stride_rad"))
+    """Per-cycle logs of unequal length as NaN-padded arrays (trials, cycles, ...), and the world: the
+    trail's centre line ``trail_m`` and its finish line ``finish_line_m`` (:func:`end_line_m`)."""
+    packed = pack_cycle_logs(logs, ("time_s", "heading_rad", "odour_L", "odour_R", "centre_odour", "turn",
+                                    "stride_rad"))
+    packed.update(pack_world([log["world"] for log in logs]))
+    return packed

@@ -40,6 +40,7 @@ from neuronav.bodies.gaits import make_gait
 from neuronav.brains.cx import decode_home_vector, stone2017
 from neuronav.brains.sky_compass import decode_heading, sky_stone2017
 from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
+from neuronav.engine.video_overlay import Marker, PopulationInset, VideoContent
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import ScenarioResult
 from neuronav.scenarios.motor_noise import MotorNoise
@@ -58,6 +59,7 @@ from neuronav.scenarios.path_integration.inputs import (
 )
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, normal_per_trial, trial_generators
+from neuronav.scenarios.worlds.scenes import pack_world
 from neuronav.spec.world import Appearance, Ground, PointAgents, World
 
 CYCLE_S = 0.64
@@ -245,8 +247,24 @@ def run_embodied(config, backend_name: str, trials: int, seed: int, video_path=N
             padded[i, : len(log[key])] = np.array(log[key])
         timeseries[key] = padded
     timeseries["turnback_s"] = np.full(trials, config.outbound_s)
+    world = []  # the nest, and where the ant turned for home (the feeder)
+    for log in logs:
+        times, path = np.array(log["time_s"], float), np.array(log["position_m"], float)
+        homing = times >= config.outbound_s
+        world.append({"nest_m": np.zeros(2), "turnback_m": path[int(np.argmax(homing)) if homing.any() else -1]})
+    timeseries.update(pack_world(world))
     simulated = float(np.nanmean([r["trial_time_s"] for r in rows]))
     return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=simulated)
+
+
+def homing_video(config, brain: HomingBrain) -> VideoContent:
+    """What the video shows: the nest and the central complex's TB1 (heading) and CPU4 (home vector memory,
+    scaled to its own range) bumps; from above, the nest in view."""
+    return VideoContent(markers=(Marker("nest", (0.0, 0.0), max(config.nest_radius_m, 0.2), (250, 200, 0)),),
+                        insets=(PopulationInset("TB1 (heading)", lambda loop: brain.cx.rates("TB1")[0]),
+                                PopulationInset("CPU4 (home vector)", lambda loop: brain.cx.memory("CPU4")[0],
+                                                low=None, high=None)),
+                        keep_in_view=((0.0, 0.0),))
 
 
 def embodied_trial(config, backend_name: str, seed: int, video_path=None, extra_hooks=()) -> tuple[dict, dict]:
@@ -293,7 +311,7 @@ def embodied_trial(config, backend_name: str, seed: int, video_path=None, extra_
 
     loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
                                    duration_s=config.outbound_s + config.homing_timeout_s, until=home,
-                                   hooks=hooks, video_path=video_path)
+                                   hooks=hooks, video_path=video_path, video_content=homing_video(config, brain))
     log = {k: list(v) for k, v in brain.log.items()}
     log["time_s"].append(np.array(loop.time_s))
     log["position_m"].append(final)

@@ -37,14 +37,18 @@ import numpy as np
 from neuronav.bodies.gaits import segment_pose
 from neuronav.bodies.step_odometer import StepOdometer, UnicycleStrideOdometer
 from neuronav.engine.loop import AgentLoop, Hook
+from neuronav.engine.sampling import Sampler
 from neuronav.errors import ConfigError
 from neuronav.senses.dorsal_rim import DorsalRim, rotations_from_quaternions
 from neuronav.senses.optic_flow import camera_displacement_m, image_shift_px
 from neuronav.senses.sky import Sky
+from neuronav.senses.sky_occlusion import SkyOcclusion
 from neuronav.spec.body import Camera, axis_angle_quat, quat_to_matrix
 
 COMPASSES = ("true", "sky")
 ODOMETERS = ("true", "steps", "optic_flow")
+# How far a sky ray is cast (cast_rays' default): an object farther away does not hide the sky.
+SKY_RAY_M = 50.0
 # LegOdometer's default sampling period, control steps (its docstring says why every step).
 LEG_ODOMETER_SAMPLE_EVERY = 1
 # FlowOdometer's default sampling period, control steps (its docstring says why).
@@ -114,7 +118,8 @@ class SkyView:
     sky : Sky
     world : World
         Its objects (trees, walls) block the sky: rays from the head along every ommatidium's view are
-        cast on the backend when it has any.
+        cast on the backend when it has any, as far as something can be hit (``SKY_RAY_M`` at most, and
+        only until every ray is above the scene's top: :class:`~neuronav.senses.sky_occlusion.SkyOcclusion`).
     rim : DorsalRim, optional
     mount : ndarray, shape (3, 3), optional
         The rims' frame in the head frame (:func:`level_rim_mount`; default identity: the kinematic
@@ -125,6 +130,7 @@ class SkyView:
         self.sky, self.rim = sky, DorsalRim() if rim is None else rim
         self.occludes = bool(world.objects)
         self.mount = None if mount is None else np.asarray(mount, float)
+        self._occlusion = SkyOcclusion(world) if self.occludes else None
 
     def head_rotations(self, backend) -> np.ndarray:
         """Rim-to-world rotations (N, 3, 3): the backend's ``head_quat`` times the mounting."""
@@ -140,8 +146,11 @@ class SkyView:
             rotations = rotations @ self.mount
         directions = self.rim.sky_directions(rotations)  # (N, M, 3)
         heads = head["head_pos"].reshape(-1, 3)
-        origins = np.repeat(heads, directions.shape[1], axis=0)
-        hits = backend.cast_rays(origins, directions.reshape(-1, 3))
+        # Cast only as far as something can be hit (SkyOcclusion.reach_m: the same answers as SKY_RAY_M).
+        reach_m = self._occlusion.reach_m(heads, directions, SKY_RAY_M)
+        if reach_m <= 0.0:  # every ray rises from above everything
+            return self.rim.responses(self.sky, rotations)
+        hits = backend.cast_rays(np.repeat(heads, directions.shape[1], axis=0), directions.reshape(-1, 3), reach_m)
         visible = ~np.isfinite(hits).reshape(directions.shape[:2])
         return self.rim.responses(self.sky, rotations, visible)
 
@@ -153,8 +162,10 @@ class LegOdometer(Hook):
     physics step) into a buffer; :meth:`take` runs the buffered samples through the odometer at once
     (:meth:`StepOdometer.update_many`, the same numbers as one update per sample) and gives the
     displacement since the last take in the body frame of now (forward, left), from the odometer's
-    integrated pose. Buffering keeps the per-step cost to one read and a copy: the odometer's work is
-    done once per brain period, in array operations.
+    integrated pose. The samples are recorded by the backend's :class:`~neuronav.engine.sampling.Sampler`
+    (``backend.sampler``; through ``read`` for a backend without one), which keeps the per-step cost to
+    a copy of the engine's raw state (MuJoCo: the joints' span of ``qpos`` and the legs' contact forces,
+    their norms taken at the take): the odometer's work is done once per brain period, in array operations.
 
     Parameters
     ----------
@@ -181,8 +192,7 @@ class LegOdometer(Hook):
         self._odometer = StepOdometer(believed_body)
         self.sample_every = int(sample_every)
         self._taken_m = np.zeros(2)
-        self._samples: list[np.ndarray] = []  # joint angles then contact loads, one array per sample
-        self._sample_now = None  # the backend's sampler of SENSORS, made at the episode's start
+        self._sampler: Sampler | None = None  # the backend's sampler of SENSORS, made at the episode's start
 
     @property
     def odometer(self) -> StepOdometer:
@@ -192,18 +202,14 @@ class LegOdometer(Hook):
 
     def initialize_episode(self, loop: AgentLoop) -> None:
         self._odometer.reset()
-        self._samples = []
         self._taken_m = np.zeros(2)
         sampler = getattr(loop.backend, "sampler", None)
-        self._sample_now = sampler(self.SENSORS) if sampler is not None else self._read_sample(loop.backend)
-        self._sample(loop)
+        self._sampler = sampler(self.SENSORS) if sampler is not None else Sampler(self._read_sample(loop.backend))
+        self._sampler.record()
 
     def after_step(self, loop: AgentLoop) -> None:
         if loop.control_steps % self.sample_every == 0:
-            self._sample(loop)
-
-    def _sample(self, loop: AgentLoop) -> None:
-        self._samples.append(self._sample_now())
+            self._sampler.record()
 
     @classmethod
     def _read_sample(cls, backend):
@@ -215,11 +221,10 @@ class LegOdometer(Hook):
 
     def flush(self) -> None:
         """Run the buffered samples through the odometer."""
-        if self._samples:
-            samples = np.array(self._samples)
+        samples = self._sampler.drain() if self._sampler is not None else ()
+        if len(samples):
             joints = self._odometer.joint_count
             self._odometer.update_many(samples[:, :joints], samples[:, joints:])
-            self._samples = []
 
     def take(self) -> np.ndarray:
         odometer = self.odometer

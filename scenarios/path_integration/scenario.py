@@ -156,6 +156,12 @@ class PathIntegration(Scenario):
             return config.protocol
         return "stone2017" if backend == "kinematic" else "i2bot"
 
+    def check_video(self, config: PathIntegrationConfig, backend: str) -> None:
+        """The stone2017 protocol steps its point agents as one batch, with no agent loop to film."""
+        if self.protocol(config, backend) == "stone2017":
+            raise ConfigError("--video films the i2bot protocol (an agent loop); the stone2017 protocol has none: "
+                              "give --set protocol=i2bot")
+
     def estimate_bytes(self, config: PathIntegrationConfig, trials: int) -> int | None:
         """Memory one batch of ``trials`` point-agent trials needs (stone2017); None for i2bot.
 

@@ -17,7 +17,8 @@ tip), ``closest_distance_m``, ``final_x_m``, ``orient_fraction`` (the share of g
 orienting), the start's ``start_y_m`` and ``start_heading_deg``, ``trial_time_s``, ``real_time_factor``.
 
 Logs (``timeseries.h5``): every 0.064 s the time, position, heading, odour and wind at both tips; every
-gait cycle the brain's branch, turn and stride; at each trial's end the plume (a raster and the puffs).
+gait cycle the brain's branch, turn and stride; at each trial's end the plume (a raster, with the x of its
+columns and the y of its rows ``plume_raster_x_m`` / ``plume_raster_y_m``, and the puffs).
 
 Results, sources and model choices: README.md in this folder.
 """
@@ -35,6 +36,7 @@ from neuronav.brains.plume_tracking import ORIENT, PlumeController
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
 from neuronav.engine.video import VideoRecorder
+from neuronav.engine.video_overlay import OdourInset, VideoContent, VideoOverlay
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
@@ -264,6 +266,12 @@ class SensorLog(Hook):
             self.log[key].append(np.array(value, float))
 
 
+def plume_video(config: PlumeTrackingConfig) -> VideoContent:
+    """What the video shows: the plume, its source and wind (drawn for every world with a plume) and the
+    antennae's odour on a log scale, each tip's bar from the brain's threshold (empty) to 10 ** 4 times it (full)."""
+    return VideoContent(insets=(OdourInset(full_scale=config.threshold * 1e4, decades=4.0),))
+
+
 def plume_trial(config: PlumeTrackingConfig, backend_name: str, seed: int, video_path=None,
                 start: tuple[tuple[float, float], float] | None = None) -> tuple[dict, dict]:
     """One trial: the metrics row and its log. ``start`` ((x, y) m, heading rad) replaces the drawn start."""
@@ -283,7 +291,8 @@ def plume_trial(config: PlumeTrackingConfig, backend_name: str, seed: int, video
     started = time.perf_counter()
     with engine:
         engine.load(world, [body])
-        video = VideoRecorder(video_path, "follow", every=VIDEO_EVERY) if video_path is not None else None
+        video = (VideoRecorder(video_path, "follow", every=VIDEO_EVERY, compose=VideoOverlay(plume_video(config)))
+                 if video_path is not None else None)
         hooks = [sensors, *([peaks] if peaks is not None else []), *([video] if video else [])]
         loop = AgentLoop(engine, gait, clocks, steering=brain, hooks=hooks)
         loop.reset(seed=seed, position_m=tuple(start_xy), yaw_rad=np.pi / 2 - heading0)
@@ -296,6 +305,7 @@ def plume_trial(config: PlumeTrackingConfig, backend_name: str, seed: int, video
         final = engine.read(("position", "heading", "odour", "wind"))
         plume = engine.chemistry.plume
         raster = plume.rasterise(shape_px=RASTER_PX)
+        raster_axes = raster_axes_m(plume.config.arena_x_m, plume.config.arena_y_m, RASTER_PX)
         puffs = plume.puffs.position_m[:, :2]
     wall_s = time.perf_counter() - started
     log = {k: np.array(v, float) for k, v in {**sensors.log, **brain.log}.items()}
@@ -305,6 +315,7 @@ def plume_trial(config: PlumeTrackingConfig, backend_name: str, seed: int, video
                            ("wind_mps", final["wind"][0])):
             log[key] = np.concatenate([log[key], np.array(value, float)[None]])
     log.update(plume_raster=raster, puffs_m=puffs, start_heading_rad=np.array(heading0))
+    log.update(zip(("plume_raster_x_m", "plume_raster_y_m"), raster_axes))
     row = {"odour_on": brain.odour == "on", **plume_metrics(log, config, reached, loop.time_s, wall_s)}
     return row, log
 
@@ -385,6 +396,13 @@ class PlumeTracking(Scenario):
         return write_plume_figures(result, config, Path(out_dir))
 
 
+def raster_axes_m(x_range_m, y_range_m, shape_px) -> tuple[np.ndarray, np.ndarray]:
+    """The x of each column (W,) and the y of each row (H,, decreasing: row 0 at the largest y) of a
+    :meth:`~neuronav.senses.plume.Plume.rasterise` image of ``shape_px`` over the rectangle."""
+    (x0, x1), (y0, y1), (height, width) = x_range_m, y_range_m, shape_px
+    return x0 + (np.arange(width) + 0.5) * (x1 - x0) / width, y1 - (np.arange(height) + 0.5) * (y1 - y0) / height
+
+
 def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
     """Per-trial logs as arrays with the trial first: samples and gait cycles NaN-padded, the plume
     rasters stacked, the puffs NaN-padded (:func:`neuronav.runs.trials.stack_padded`, as chunks are joined);
@@ -393,6 +411,8 @@ def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
               for key in ("time_s", "position_m", "heading_rad", "odour", "wind_mps", "cycle_time_s", "branch",
                           "turn", "stride_rad")}
     packed["plume_raster"] = np.stack([log["plume_raster"] for log in logs])
+    for axis in ("plume_raster_x_m", "plume_raster_y_m"):  # where the raster lies (a report draws it there)
+        packed[axis] = np.stack([log[axis] for log in logs])
     packed["puffs_m"] = stack_padded([log["puffs_m"] if len(log["puffs_m"]) else np.full((1, 2), np.nan)
                                       for log in logs], float)
     return packed

@@ -43,15 +43,18 @@ from neuronav.brains.mushroom_body import (
 )
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks
+from neuronav.engine.video import VideoRecorder
+from neuronav.engine.video_overlay import EyeInset, LevelInset, Marker, VideoContent, VideoOverlay
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
 from neuronav.scenarios.route_following.compound_view import EYE_CHANNELS, EYE_SENSORS, CompoundPanorama, ant_eyes
 from neuronav.scenarios.tools.mb_familiarity import SPACING_M, forest_world, panoramas, route
-from neuronav.scenarios.trial_loop import pack_cycle_logs
+from neuronav.scenarios.trial_loop import VIDEO_EVERY, pack_cycle_logs
 from neuronav.scenarios.variability import is_on, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine, point_agent_cameras
+from neuronav.scenarios.worlds.scenes import pack_world, world_record
 from neuronav.spec.world import PointAgents
 
 STRIDE_RAD = np.radians(20.0)
@@ -413,9 +416,25 @@ def trial_start(config: RouteFollowingConfig, points: np.ndarray, headings: np.n
             heading + float(np.radians(config.release_heading_jitter_deg)) * float(draws[2]))
 
 
+def route_video(points: np.ndarray, memory: RouteMemory, steering: FamiliaritySteering) -> VideoContent:
+    """What the test's video shows: the learnt route and its end, the panorama and the mushroom body's novelty
+    looking ahead (its output over the active KCs, the share klinokinesis turns by)."""
+    def novelty(loop) -> float:
+        if not steering.log["novelty"]:
+            return 0.0
+        kcs = max(steering.log["kc_active"][-1] * memory.learner.rates("KC").shape[1], 1.0)
+        return steering.log["novelty"][-1] / kcs
+
+    return VideoContent(routes=(points,), markers=(Marker("end", tuple(points[-1]), 0.3),),
+                        insets=(EyeInset(("panorama",), "panorama", height_px=144),
+                                LevelInset("MB novelty", novelty)),
+                        keep_in_view=(tuple(points.min(axis=0)), tuple(points.max(axis=0))))
+
+
 def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
-                landscape: bool = False) -> tuple[dict, dict]:
-    """One trial: train along the route, test from the release point; the metrics row and the logs."""
+                landscape: bool = False, video_path=None) -> tuple[dict, dict]:
+    """One trial: train along the route, test from the release point (filmed to ``video_path`` when given);
+    the metrics row and the logs."""
     config = body_steering(config, backend_name)
     points, headings = route(int(round(config.route_m / SPACING_M)) + 1)
     world = forest_world(points, seed=world_seed(config, seed))
@@ -437,15 +456,23 @@ def route_trial(config: RouteFollowingConfig, backend_name: str, seed: int,
         training.reset(seed=seed, position_m=(0.0, 0.0), yaw_rad=np.pi / 2 - headings[0])
         training.run(10.0 * config.route_m, until=lambda loop: guide.done)  # at least 0.1 m/s
         memory.freeze()
-        test = AgentLoop(engine, gait, clocks, steering=steering)
+        video = (VideoRecorder(video_path, "follow", every=VIDEO_EVERY,
+                               compose=VideoOverlay(route_video(points, memory, steering)))
+                 if video_path is not None else None)
+        test = AgentLoop(engine, gait, clocks, steering=steering, hooks=[video] if video else [])
         start, start_heading = trial_start(config, points, headings, seed)
         test.reset(seed=seed, position_m=tuple(start), yaw_rad=np.pi / 2 - start_heading)
-        test.run(config.duration_s, until=steering.arrived)
+        try:
+            test.run(config.duration_s, until=steering.arrived)
+        finally:
+            if video is not None:
+                video.close()
         final = engine.read(("position",))["position"][0]
         test_time_s = test.time_s
     log = {k: np.array(v, float) for k, v in steering.log.items() if k != "position_m"}
     log["position_m"] = np.array([*steering.log["position_m"], final]).reshape(-1, 2)
     log["train_position_m"] = np.array(guide.positions).reshape(-1, 2)
+    log["world"] = world_record(world, goal_m=points[-1])
     if landscape:
         log.update(familiarity_landscape(memory, world, points, headings, views=views))
     row = route_metrics(log["position_m"], points, config, memory.views, test_time_s)
@@ -514,6 +541,7 @@ class RouteFollowing(Scenario):
     config_type = RouteFollowingConfig
     backends = EVERY_BACKEND
     default_backend = "kinematic"
+    records_video = True
     chunk_trials = 1000  # kinematic batches (shared forest) of at most this many agents
 
     def smoke_config(self) -> dict:
@@ -543,10 +571,20 @@ class RouteFollowing(Scenario):
         if backend != "kinematic":
             integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
 
+    def check_video(self, config: RouteFollowingConfig, backend: str) -> None:
+        """A shared forest on the kinematic backend runs every trial as one batch, with no agent loop to film."""
+        if self._batched(body_steering(config, backend), backend):
+            raise ConfigError("--video films one trial's agent loop; with forest_seed >= 0 on kinematic the trials run "
+                              "as one batch: give --set forest_seed=-1 (or another backend)")
+
+    @staticmethod
+    def _batched(config: RouteFollowingConfig, backend: str) -> bool:
+        return backend == "kinematic" and config.forest_seed >= 0 and config.test_views_per_cycle == 1
+
     def run(self, config: RouteFollowingConfig, *, backend: str, trials: int, seed: int,
             video_path: Path | None = None) -> ScenarioResult:
         config = body_steering(config, backend)
-        if backend == "kinematic" and config.forest_seed >= 0 and config.test_views_per_cycle == 1:
+        if self._batched(config, backend):
             rows, logs = run_kinematic_batch(config, [seed + i for i in range(trials)], landscape=config.landscape)
             rows = [dict(row, trial=i, seed=seed + i) for i, row in enumerate(rows)]
             return ScenarioResult(trials=rows, timeseries=pack_route_logs(logs, config),
@@ -554,7 +592,8 @@ class RouteFollowing(Scenario):
         rows, logs = [], []
         for i in range(trials):
             row, log = route_trial(config, backend, seed + i, landscape=(i == 0 and config.landscape
-                                                                         and backend == "kinematic"))
+                                                                         and backend == "kinematic"),
+                                   video_path=video_path if i == 0 else None)
             rows.append(dict(row, trial=i, seed=seed + i))
             logs.append(log)
         return ScenarioResult(trials=rows, timeseries=pack_route_logs(logs, config),
@@ -567,13 +606,15 @@ class RouteFollowing(Scenario):
 
 
 def pack_route_logs(logs: list[dict], config: RouteFollowingConfig) -> dict[str, np.ndarray]:
-    """The trials' logs as NaN-padded arrays (trials, cycles, ...), the route and the first trial's landscape."""
+    """The trials' logs as NaN-padded arrays (trials, cycles, ...), each trial's world (its forest and the
+    route's end ``goal_m``), the route and the first trial's landscape."""
     timeseries = pack_cycle_logs(logs, LOG_KEYS)
     longest = max(len(log["train_position_m"]) for log in logs)
     timeseries["train_position_m"] = np.full((len(logs), longest, 2), np.nan)
     for i, log in enumerate(logs):
         timeseries["train_position_m"][i, :len(log["train_position_m"])] = log["train_position_m"]
     timeseries["route_m"] = route(int(round(config.route_m / SPACING_M)) + 1)[0][None]
+    timeseries.update(pack_world([log["world"] for log in logs]))  # each trial's forest (objects_m) and goal
     if "landscape_novelty" in logs[0]:
         for key in ("landscape_x_m", "landscape_y_m", "landscape_novelty"):
             timeseries[key] = logs[0][key][None]  # the first trial's, with a trial axis of one
@@ -654,6 +695,7 @@ def run_kinematic_batch(config: RouteFollowingConfig, seeds: list[int], landscap
         log = {k: np.array(v, float) for k, v in logs[i].items() if k != "position_m"}
         log["position_m"] = np.array([*logs[i]["position_m"], final[i]]).reshape(-1, 2)
         log["train_position_m"] = train_path
+        log["world"] = world_record(world, goal_m=points[-1])
         rows.append(dict(route_metrics(log["position_m"], points, config, memory.views, float(end_s[i])),
                          strategy=trial_strategies[i], release_offset_m=trial_release_offset_m(config, seeds[i])))
         out.append(log)

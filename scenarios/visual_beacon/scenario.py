@@ -36,6 +36,7 @@ from neuronav.brains.steering import copy_and_shift
 from neuronav.brains.vision import beacon_shift
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, integer_ratio
+from neuronav.engine.video_overlay import EyeInset, Marker, PopulationInset, VideoContent
 from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
@@ -47,7 +48,7 @@ from neuronav.scenarios.path_integration.embodied import steering_command
 from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
-from neuronav.scenarios.worlds.scenes import forest, landmark, vision_appearance
+from neuronav.scenarios.worlds.scenes import forest, landmark, pack_world, vision_appearance, world_record
 from neuronav.senses.compound_eye_vision import beacon_eye_image
 from neuronav.spec.world import Ground, World
 
@@ -151,6 +152,15 @@ class BeaconBrain:
         return self.motor_noise(*command)
 
 
+def beacon_video(config: VisualBeaconConfig, brain: BeaconBrain, start_m, goal_m) -> VideoContent:
+    """What the video shows: the goal (within ``success_radius_m`` of the landmark), both eyes and the
+    copy-and-shift circuit's CPU1 (its steering output); from above, the start and the goal in view."""
+    return VideoContent(markers=(Marker("goal", tuple(goal_m), config.success_radius_m, (250, 200, 0)),),
+                        insets=(EyeInset(("eye_L", "eye_R"), "eyes L R"),
+                                PopulationInset("CPU1", lambda loop: brain.circuit.rates("CPU1")[0])),
+                        keep_in_view=(tuple(start_m), tuple(goal_m)))
+
+
 def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video_path=None) -> tuple[dict, dict]:
     """One trial: the metrics row and the per-cycle log (with the first views)."""
     mode = eye_mode(config, seed)
@@ -174,11 +184,12 @@ def beacon_trial(config: VisualBeaconConfig, backend_name: str, seed: int, video
 
     loop, final, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
                                    duration_s=config.timeout_s, until=arrived, video_path=video_path,
-                                   position_m=tuple(start))
+                                   position_m=tuple(start), video_content=beacon_video(config, brain, start, goal))
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     log["position_m"] = np.vstack([log["position_m"], final[None]])
     log["end_time_s"] = np.array(loop.time_s)
     log["first_view"] = brain.first_view
+    log["world"] = world_record(world, beacon_m=goal)
     return beacon_metrics(log, config, mode, heading0, loop.time_s, wall_s, start), log
 
 
@@ -263,7 +274,8 @@ class VisualBeacon(Scenario):
 
 
 def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
-    """Per-cycle logs of unequal length as NaN-padded arrays (trials, cycles, ...), and the first views."""
+    """Per-cycle logs of unequal length as NaN-padded arrays (trials, cycles, ...), the first views and
+    the world (the landmark and the trees, :func:`~neuronav.scenarios.worlds.scenes.world_record`)."""
     packed = pack_cycle_logs(logs, ("time_s", "heading_rad", "shift", "turn", "stride_rad"))
     for name in ("eye_L", "eye_R"):
         shape = next((log["first_view"][name].shape for log in logs if name in log["first_view"]), None)
@@ -273,4 +285,5 @@ def pack_logs(logs: list[dict]) -> dict[str, np.ndarray]:
         for i, log in enumerate(logs):
             if name in log["first_view"]:
                 packed[f"first_view_{name}"][i] = log["first_view"][name]
+    packed.update(pack_world([log["world"] for log in logs]))
     return packed

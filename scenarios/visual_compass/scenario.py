@@ -36,6 +36,7 @@ from neuronav.angles import wrap_rad
 from neuronav.brains.vision import ZernikeBasis, compass_command
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
+from neuronav.engine.video_overlay import EyeInset, VideoContent
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
@@ -44,7 +45,7 @@ from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_
 from neuronav.scenarios.trial_loop import run_loop, trials_one_by_one
 from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
-from neuronav.scenarios.worlds.scenes import compass_scene
+from neuronav.scenarios.worlds.scenes import compass_scene, pack_world, world_record
 from neuronav.senses.compound_eye_vision import compass_panorama
 from neuronav.spec.world import World
 
@@ -156,7 +157,8 @@ def compass_trial(config: VisualCompassConfig, backend_name: str, seed: int, vid
     brain = CompassBrain(config, rotation, seed, body.compound_eyes if compound else ())
     clocks = Clocks(physics_dt_s=physics_dt, control_dt_s=CONTROL_S, brain_dt_s=CYCLE_S)
     loop, _, wall_s = run_loop(engine, world, body, gait, clocks, brain, heading_rad=heading0, seed=seed,
-                               duration_s=config.duration_s, hooks=[rotation], video_path=video_path)
+                               duration_s=config.duration_s, hooks=[rotation], video_path=video_path,
+                               video_content=VideoContent(insets=(EyeInset(("panorama",), "panorama", height_px=144),)))
     log = {k: np.array(v, float) for k, v in brain.log.items()}
     # The stored direction is the heading at the first look; the world's turn moves it (module doc).
     log["target_rad"] = wrap_rad(log["heading_rad"][0] - log["scene_yaw_rad"])
@@ -239,6 +241,7 @@ class VisualCompass(Scenario):
             timeseries[key] = np.full((len(logs), cycles), np.nan)
             for i, log in enumerate(logs):
                 timeseries[key][i, : len(log[key])] = log[key]
+        timeseries.update(pack_world([world_record(compass_scene())] * len(logs)))  # its objects, unturned
         return ScenarioResult(trials=rows, timeseries=timeseries, simulated_time_s=config.duration_s)
 
     def figures(self, result: ScenarioResult, config: VisualCompassConfig, out_dir: Path) -> list[Path]:

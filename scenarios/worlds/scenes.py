@@ -14,6 +14,10 @@ Sources (the I2Bot paper's case studies, §3.3.4; ``docs/parameters.md`` §7):
 
 Every builder returns backend-agnostic data (:class:`~neuronav.spec.world.WorldObject` tuples or a
 :class:`~neuronav.spec.world.World`): all three backends draw the same scene.
+
+A trial records its world beside its time series as arrays in metres (:func:`world_record`, stacked
+over trials by :func:`pack_world`): objects as circles ``objects_m`` (x, y, radius_m), trails as
+polylines, named points (nest, goal, beacon); a report's replay draws them under the path.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from neuronav.errors import ConfigError, real_or_nan
+from neuronav.runs.trials import stack_padded
 from neuronav.senses.vision import LUMA_WEIGHTS
 from neuronav.spec.world import MAX_LENGTH_M, Appearance, Ground, World, WorldObject
 
@@ -198,3 +203,39 @@ def compass_scene() -> World:
         position = (float(distance * np.sin(bearing)), float(distance * np.cos(bearing)), float(half_height))
         objects.append(WorldObject(shape, position, tuple(float(s) for s in size), rgba))
     return World(ground=Ground(size_m=COMPASS_FLOOR_M), objects=tuple(objects), appearance=vision_appearance())
+
+
+def footprints_m(objects) -> np.ndarray:
+    """Each object's footprint on the floor, (K, 3): x, y and radius_m (a cylinder's, cone's or sphere's
+    radius; a box's larger horizontal half-extent): what a report's replay draws as circles
+    (``objects_m``, :mod:`neuronav.runs.report.replay`)."""
+    rows = [(obj.position_m[0], obj.position_m[1], max(obj.size_m[:2]) if obj.shape == "box" else obj.size_m[0])
+            for obj in objects]
+    return np.array(rows, float).reshape(-1, 3)
+
+
+def world_record(world: World, **points_m) -> dict[str, np.ndarray]:
+    """A trial's world as arrays in metres, for its time series (:func:`pack_world`): ``objects_m``
+    (K, 3) (:func:`footprints_m`) when it has objects, each polyline trail's centre line (V, 2) as
+    ``trail_m`` (then ``trail_1_m`` ...), and ``points_m`` (name -> (x, y) or (P, 2)) as given."""
+    record = {}
+    if world.objects:
+        record["objects_m"] = footprints_m(world.objects)
+    lines = [t for t in world.odour.trails if getattr(t, "vertices_m", None) is not None]  # not image trails
+    for i, trail in enumerate(lines):
+        line = np.asarray(trail.vertices_m, float)
+        record["trail_m" if i == 0 else f"trail_{i}_m"] = np.vstack([line, line[:1]]) if trail.closed else line
+    record.update({name: np.asarray(value, float) for name, value in points_m.items()})
+    return record
+
+
+def pack_world(records: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    """The trials' :func:`world_record` dicts as arrays with the trial first, NaN-padded
+    (:func:`neuronav.runs.trials.stack_padded`, as chunks are joined: the file is the same at any
+    chunk size). A name some trial lacks is NaN for it."""
+    names = list(dict.fromkeys(name for record in records for name in record))
+    packed = {}
+    for name in names:
+        shape = next(np.shape(r[name]) for r in records if name in r)
+        packed[name] = stack_padded([r[name] if name in r else np.full(shape, np.nan) for r in records], float)
+    return packed

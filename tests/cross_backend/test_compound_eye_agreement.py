@@ -172,6 +172,71 @@ def test_eye_views_cover_the_field_and_read_a_uniform_scene_exactly():
     assert np.allclose(views.values(sky, (0.15, 0.5)), (0.15, 0.5))
 
 
+
+# Objects partly under the ground (the ball), tall and thin (the trunk: its bounding box far tighter than its
+# sphere) and boxy, all around the ant.
+UNDERGROUND = World(objects=(
+    WorldObject("sphere", (0.5, 3.0, 0.3), (1.0,)),
+    WorldObject("cylinder", (-3.0, 2.0, 2.0), (0.2, 2.0)),
+    WorldObject("box", (2.0, -3.0, 0.2), (0.5, 0.5, 0.6)),
+))
+
+
+def _reads(name: str, world: World, yaws_rad=(0.0, 2.5)) -> np.ndarray:
+    """Both compound eyes (yaws, 2, M, 2) of the ant at rest (ommatidia_scale 0.5), turned to each yaw."""
+    engine, carried = _engine(name, desert_ant(compound_eyes=True, ommatidia_scale=0.5))
+    with engine:
+        engine.load(world, [carried])
+        out = []
+        for yaw in yaws_rad:
+            engine.reset(seed=0, position_m=(0.0, 0.0), yaw_rad=yaw)
+            read = engine.read(EYES)
+            out.append(np.stack([read[eye][0] for eye in EYES]))
+    return np.array(out)
+
+
+def test_pybullet_draws_the_flat_floor_from_rays_as_tinyrenderer_draws_it(monkeypatch):
+    """The compound eyes' faces leave the flat floor to rays (TinyRenderer's costliest triangles): the same
+    values as with the floor drawn, the ball's part under the ground hidden either way."""
+    from neuronav.backends.pybullet import backend as pybullet_backend
+    from neuronav.backends.pybullet import camera
+    from neuronav.backends.pybullet.engine import pb
+    from neuronav.backends.pybullet.scene import exact_rgba
+
+    from_rays = _reads("pybullet", UNDERGROUND)
+
+    def floor_drawn(cid, views, lut, culling=None, floor=None):
+        pb.changeVisualShape(floor[0], -1, rgbaColor=exact_rgba(UNDERGROUND.appearance.ground_rgb), physicsClientId=cid)
+        return camera.render_spectral(cid, views, lut, culling)
+
+    monkeypatch.setattr(pybullet_backend, "render_spectral", floor_drawn)
+    drawn = _reads("pybullet", UNDERGROUND)
+    assert np.abs(from_rays - drawn).max() <= 1e-9
+
+
+def test_mujoco_compound_eye_faces_draw_only_what_they_face(monkeypatch):
+    """Each face draws the geoms whose bounding sphere and turned bounding box meet its frustum: under 30 % of
+    the 40-tree forest's geoms per face, the same values as drawing every geom in every face."""
+    from neuronav.backends.mujoco import backend as mujoco_backend
+    from neuronav.scenarios.worlds.scenes import forest
+
+    world = World(objects=forest(40, seed=0, inner_radius_m=2.0, outer_radius_m=30.0))
+    drawn = []
+    visible = mujoco_backend._FlatRenderer._visible
+
+    def counted(self, model, data, views):
+        shown = visible(self, model, data, views)
+        drawn.append(int(shown.sum()))
+        return shown
+
+    monkeypatch.setattr(mujoco_backend._FlatRenderer, "_visible", counted)
+    yaws_rad = np.arange(0.0, 2.0 * np.pi, 0.5)
+    culled = _reads("mujoco", world, yaws_rad)
+    assert max(drawn) < 0.3 * 10 * len(world.objects)  # ten faces per read
+    monkeypatch.setattr(mujoco_backend._FlatRenderer, "_visible",
+                        lambda self, model, data, views: np.ones((len(views), self._cullable.size), bool))
+    assert np.array_equal(culled, _reads("mujoco", world, yaws_rad))
+
 if __name__ == "__main__":  # the numbers in the module doc
     values = _read_scene()
     for name in ("mujoco", "pybullet"):

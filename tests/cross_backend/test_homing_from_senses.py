@@ -74,6 +74,20 @@ def test_physics_ant_homes_from_its_senses(backend):
         assert r["compass_error_deg"] < 20.0, r
 
 
+def loaded(backend, world):
+    """``backend`` with ``world`` loaded and reset (seed 0): two unicycle point agents on kinematic, else the ant."""
+    engine = registry.load("backend", backend)()
+    if backend == "kinematic":
+        body = PointAgents(count=2, mode="unicycle")
+    else:
+        from neuronav.bodies.desert_ant import desert_ant
+
+        body = desert_ant()
+    engine.load(world, [body])
+    engine.reset(seed=0)
+    return engine
+
+
 @pytest.mark.parametrize("backend", ["kinematic", "mujoco"])
 def test_objects_overhead_block_the_sky(backend):
     """A roof over the ant: the dorsal rim's rays hit it on the backend, so no POL-neuron responds."""
@@ -82,19 +96,35 @@ def test_objects_overhead_block_the_sky(backend):
     roof = WorldObject("box", (0.0, 0.0, 4.0), (6.0, 6.0, 0.5))
     responses = {}
     for name, world in (("open", World(sky=sky)), ("roofed", World(objects=(roof,), sky=sky))):
-        engine = registry.load("backend", backend)()
-        if backend == "kinematic":
-            body = PointAgents(count=2, mode="unicycle")
-        else:
-            from neuronav.bodies.desert_ant import desert_ant
-
-            body = desert_ant()
-        with engine:
-            engine.load(world, [body])
-            engine.reset(seed=0)
+        with loaded(backend, world) as engine:
             responses[name] = SkyView(sky, world)(engine)
     assert np.abs(responses["open"]).max() > 0.1
     assert np.all(responses["roofed"] == 0.0)
+
+
+@pytest.mark.parametrize("backend", ["kinematic", "mujoco", "pybullet"])
+def test_the_rays_cast_as_far_as_the_scene_is_high_see_what_50_m_rays_see(backend):
+    """SkyView casts the rims' rays only until they rise above the scene's top: a tower 20 m off, 20 m high,
+    still hides the low ommatidia that face it (their rays meet its near face 16 m off about 14 m up, ~21 m
+    along), as rays cast the full 50 m do, also with the scene turned 2 rad (set_scene_yaw); a low slab that
+    no rising ray can meet hides none (none is cast)."""
+    available(backend)
+    sky = run_sky(apply_overrides(PathIntegrationConfig, {}))
+    tower = WorldObject("box", (20.0, 0.0, 10.0), (4.0, 4.0, 10.0))
+    slab = WorldObject("box", (3.0, 0.0, 0.1), (0.5, 0.5, 0.1))
+    cases = [("tower", (tower,), 0.0), ("turned", (tower,), 2.0), ("slab", (slab,), 0.0)]
+    blocked = {}
+    for name, objects, yaw_rad in cases:
+        world = World(objects=objects, sky=sky)
+        with loaded(backend, world) as engine:
+            engine.set_scene_yaw(yaw_rad)
+            engine.step(1)  # (MuJoCo moves the scene's geoms in the step's kinematics)
+            view, full = SkyView(sky, world), SkyView(sky, world)
+            full._occlusion.top_m = None  # every ray cast the full 50 m
+            cut = view(engine)
+            np.testing.assert_array_equal(cut, full(engine))
+            blocked[name] = int((cut == 0.0).sum())
+    assert blocked["tower"] > 0 and blocked.get("turned", 1) > 0 and blocked["slab"] == 0, blocked
 
 
 def test_settings_that_cannot_run_are_refused_before_any_trial():

@@ -125,6 +125,29 @@ def test_a_sampler_reads_what_read_reads(backend, normal):
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
+def test_a_sampler_records_what_read_reads_at_each_record(backend, normal):
+    """record() keeps each step's values (MuJoCo: raw state, finished at drain()); drain() gives them in order,
+    past the first buffer's 128 rows, and empties the record."""
+    pytest.importorskip(backend, reason=f"{backend} is not installed")
+    names = ("joint_pos", "contact_load")
+    with registry.load("backend", backend)(timestep_s=0.002) as engine:
+        engine.load(World(), [normal])
+        engine.reset(0)
+        gait = make_gait("tripod", normal)
+        sampler, expected = engine.sampler(names), []
+        for _ in range(130):
+            engine.write({"joint_targets": gait.step(0.0, np.radians(15.0))[None, :]})
+            engine.step(2)
+            sampler.record()
+            sensed = engine.read(names)
+            expected.append(np.concatenate([sensed[n][0].ravel() for n in names]))
+        recorded = sampler.drain()
+        np.testing.assert_allclose(recorded, np.array(expected), rtol=1e-12, atol=1e-12)
+        assert (recorded[:, -8:] > 1.0).any() and len(np.unique(recorded[:, 0])) > 100  # loads and moving joints
+        assert sampler.drain().shape[0] == 0
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
 def test_normal_legs_read_close_to_the_true_distance(backend, normal):
     true_m, odometer = walk(backend, normal, normal)
     assert true_m > 0.8, true_m  # it walked (~0.33 m per cycle)

@@ -218,7 +218,9 @@ def test_the_videos_checker_floor_has_squares_of_checker_m_with_the_shared_parit
     odd = (np.floor(points / look.checker_m).sum(-1) % 2) == 1
     assert (image[~odd].mean() - image[odd].mean()) > 25  # ground_rgb is the lighter colour
     lighter = image > 0.5 * (image[~odd].mean() + image[odd].mean())
-    assert (lighter == ~odd).mean() > 0.97
+    # PyBullet draws the follow view at half its size a side (backends/pybullet/camera.py, FOLLOW_SCALE): its
+    # square edges land within a pixel or two (96 % of the pixels agree; a wrong parity or size gives <= 50 %).
+    assert (lighter == ~odd).mean() > (0.95 if name == "pybullet" else 0.97)
 
 
 def test_the_mjcf_text_of_a_world_with_trails_names_their_texture_file(tmp_path):

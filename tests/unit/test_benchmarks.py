@@ -28,6 +28,8 @@ QUICK = {
     "compound_eye_read": ("--reads", "2", "--agents", "20", "--repeats", "1", "--scale", "0.25",
                           "--physics-reads", "2"),
     "vector_env": ("--envs", "1000", "--steps", "3", "--single-steps", "3", "--repeats", "1"),
+    "report_load": ("--trials", "3", "--steps", "100", "--repeats", "1", "--no-browser"),
+    "video_cost": ("--seconds", "0.3", "--repeats", "1"),
 }
 NUMBER = r"(\d+(?:\.\d+)?)"
 
@@ -65,6 +67,37 @@ def test_single_threaded_targets_are_judged_on_cpu_time(name, verdicts):
     judged = [line for line in output_of(name).splitlines() if re.search(r"\b(met|MISSED)\b", line)]
     assert len(judged) == verdicts, judged
     assert all(re.search(r"on CPU", line) for line in judged), judged
+
+
+def test_report_load_gives_the_html_size():
+    out = output_of("report_load")
+    size = re.search(rf"^HTML size: {NUMBER} MB", out, re.MULTILINE)
+    assert size is not None and float(size.group(1)) > 1.0, out  # plotly.js alone is ~4.8 MB: it is inside
+    assert re.search(rf"^report build 1\s+{NUMBER}\s+{NUMBER}\s*$", out, re.MULTILINE), out
+
+
+def test_video_cost_gives_both_runs_of_each_backend_and_their_ratios():
+    out = output_of("video_cost")
+    for backend in ("mujoco", "pybullet"):
+        rows = re.findall(rf"^{backend}\s+(no|yes)\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+{NUMBER}\s+(\d+)\s*$",
+                          out, re.MULTILINE)
+        assert [row[0] for row in rows] == ["no", "yes"], out
+        assert int(rows[0][6]) == 0 and int(rows[1][6]) > 0, out  # the filmed run wrote frames
+        assert re.search(rf"^{backend}\s+with / without video: loop {NUMBER}x, cpu {NUMBER}x, cpu \+ ffmpeg {NUMBER}x, "
+                         rf"wall {NUMBER}x$", out, re.MULTILINE), out
+    for measure in ("loop's CPU", "process CPU", "all CPU", "wall"):
+        assert re.search(rf"^  {measure}\s+{NUMBER}x, (met|MISSED): ", out, re.MULTILINE), out
+
+
+def test_compound_eye_read_counts_the_rays_objects_cost():
+    """Each kinematic scene's rays intersected with objects per read, and their hits: none in the open world,
+    some among the trees, never more hits than rays tested."""
+    found = re.findall(r"rays intersected with objects per read: ([\d,]+) of ([\d,]+) \(([\d,]+) hits\)",
+                       output_of("compound_eye_read"))
+    assert len(found) == 3, found  # open, beacon, forest
+    numbers = [[int(v.replace(",", "")) for v in row] for row in found]
+    assert numbers[0][0] == numbers[0][2] == 0
+    assert all(0 < hit <= tested <= all_rays for tested, all_rays, hit in numbers[1:]), numbers
 
 
 def test_startup_gives_wall_and_cpu_seconds_per_command():

@@ -12,6 +12,7 @@ import pytest
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.desert_ant.body import point_agent_compound_eyes
 from neuronav.errors import ConfigError
+from neuronav.scenarios.worlds.scenes import forest
 from neuronav.senses.compound_eye import (
     ACCEPTANCE_DEG,
     cataglyphis_eye,
@@ -192,6 +193,24 @@ def test_reader_agrees_with_the_sampling_matrix_on_a_ray_cast_panorama(pitch_rad
     assert np.median(difference) < 0.003
     assert axes_only.mean() > 1.5 * difference.mean()
 
+
+def test_level_eyes_find_every_upright_object_as_tilted_eyes_do():
+    """Level eyes take the upright objects from the rays sorted into bands of elevation (one search per band
+    of a wedge); eyes tilted by 1e-9 rad take the tiles. Both see the same: trees near (one around the eye),
+    far, tall and flat, in front of and behind each other, across the wedge seam at +-180 degrees."""
+    world = World(objects=(*SCENE, *forest(20, seed=3, inner_radius_m=0.5, outer_radius_m=25.0),
+                           WorldObject("cylinder", (-6.0, 0.01, 0.2), (2.0, 0.2))))  # under the first eye
+    eye = cataglyphis_eye("e", "head", (0, 0, 0), "R", ommatidia_scale=0.5)
+    rng = np.random.default_rng(4)
+    positions = np.column_stack([rng.uniform(-8.0, 8.0, (12, 2)), np.full(12, 0.5)])
+    positions[0, :2] = (-6.0, 0.0)  # inside the flat cylinder's footprint
+    headings = rng.uniform(0.0, 2.0 * np.pi, 12)
+    reader = CompoundEyeReader(world, eye)
+    level = reader.read(positions, head_rotations_from_headings(headings), scene_yaw_rad=0.3)
+    tilted = reader.read(positions, head_rotations_from_headings(headings, pitch_rad=1e-9), scene_yaw_rad=0.3)
+    empty = CompoundEyeReader(World(), eye).read(positions, head_rotations_from_headings(headings))
+    assert (np.abs(level - empty).max(axis=-1) > 0.01).mean() > 0.2  # the objects cover many ommatidia
+    assert np.abs(level - tilted).max() < 1e-6
 
 def test_uv_skyline_sky_outshines_ground_and_objects_in_uv_only():
     look = Appearance()

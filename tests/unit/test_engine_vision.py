@@ -33,17 +33,20 @@ class Engine:
     eyes_attribute: str  # the backend's rendering state, None until an eye is read
 
     def follow_view_colours(self, backend, image: np.ndarray, appearance: Appearance) -> None:
-        """The follow view's sky and floor are the appearance's."""
+        """The follow view's sky and floor are the appearance's (the sky seen by the camera turned level:
+        the floor reaches the horizon, so the follow view's own pose, 25° down, shows none)."""
+        from neuronav.engine.articulated import FollowView
+
+        level = FollowView(np.array([0.0, -3.0, 0.5]), np.array([0.0, 0.0, 0.5]), np.array([0.0, 0.0, 1.0]), 3.0)
+        np.testing.assert_allclose(backend._render_follow(level)[0, 0], to_uint8(appearance.sky_rgb), atol=1)
         if self.name == "pybullet":
-            np.testing.assert_array_equal(image[0, 0], to_uint8(appearance.sky_rgb))
             return
         import mujoco
 
         model = backend.model
-        sky = model.tex_data[model.tex_adr[0]:model.tex_adr[0] + 3]
-        ground = model.mat_rgba[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_MATERIAL, "ground")]
-        np.testing.assert_allclose(sky, to_uint8(appearance.sky_rgb), atol=1)  # MuJoCo truncates to uint8
-        np.testing.assert_allclose(ground[:3], appearance.ground_rgb)
+        sand = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_TEXTURE, "sand")  # the plain ground's texture
+        ground = model.tex_data[model.tex_adr[sand]:model.tex_adr[sand] + 3]
+        np.testing.assert_array_equal(ground, to_uint8(appearance.ground_rgb))
 
 
 def _mujoco() -> Engine:

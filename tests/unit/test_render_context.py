@@ -139,7 +139,8 @@ def test_the_eyes_draw_only_what_they_face_and_see_what_they_saw_drawing_everyth
 
     def looks(cull: bool) -> tuple[list, list]:
         if not cull:
-            monkeypatch.setattr(mujoco_backend._FlatRenderer, "_cull", lambda *_: np.empty(0, int))
+            monkeypatch.setattr(mujoco_backend._FlatRenderer, "_visible",
+                                lambda self, model, data, views: np.ones((len(views), self._cullable.size), bool))
         images, drawn = [], []
         with registry.load("backend", "mujoco")() as engine:
             engine.load(world, [desert_ant()])

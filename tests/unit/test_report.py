@@ -1,0 +1,237 @@
+"""``neuronav report`` without a browser: what the HTML file holds, the replay's frames, several
+folders, and the exit status 2 cases (the browser tests are in tests/browser/)."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from neuronav.runs import cli
+from neuronav.runs.report import replay
+
+TINY = ["--set", "outbound_steps=200", "--set", "inbound_steps=200"]
+FIGURE_JSON = re.compile(r"<script type='application/json' id='(figure-\d+)'>(.*?)</script>", re.S)
+
+
+@pytest.fixture(scope="module")
+def folders(tmp_path_factory) -> dict[str, Path]:
+    """A tiny kinematic run (with figures), a two-point sweep and a one-backend compare, each with --report."""
+    root = tmp_path_factory.mktemp("report")
+    common = ["path-integration", "--trials", "3", *TINY]
+    assert cli.main(["run", *common, "--backend", "kinematic", "--out", str(root / "run"), "--report"]) == 0
+    assert cli.main(["sweep", *common, "--backend", "kinematic", "--grid", "noise=0.1,0.3", "--workers", "1",
+                     "--no-figures", "--out", str(root / "sweep"), "--report"]) == 0
+    assert cli.main(["compare", *common, "--backends", "kinematic", "--out", str(root / "compare"), "--report"]) == 0
+    return {"root": root, "run": root / "run", "sweep": root / "sweep", "compare": root / "compare"}
+
+
+def replays(page: str) -> list[dict]:
+    return [json.loads(text) for _, text in FIGURE_JSON.findall(page)]
+
+
+def test_run_report_holds_settings_metrics_and_every_figure(folders):
+    run = folders["run"]
+    page = (run / "report.html").read_text()
+    summary = json.loads((run / "summary.json").read_text())
+    for key, value in summary["config"].items():
+        assert f"<td>{key}</td><td>{value if not isinstance(value, float) else f'{value:.4g}'}</td>" in page, key
+    for metric in summary["metrics"]:
+        assert f"<td>{metric}</td>" in page, metric
+    assert f"{summary['metrics']['closest_distance']:.4g}" in page
+    pngs = sorted(run.glob("*.png"))
+    assert len(pngs) >= 3
+    for png in pngs:
+        assert base64.b64encode(png.read_bytes()).decode() in page, png.name
+
+
+def test_report_needs_no_network(folders):
+    page = (folders["run"] / "report.html").read_text()
+    outside = re.findall(r"<(?:script|link|img|video|iframe|source)\b[^>]*\b(?:src|href)\s*=\s*['\"]?(?:https?:)?//",
+                         page, re.I)
+    assert not outside, outside
+    assert page.count("plotly.js v") >= 1  # the library itself is inside, once (not once per figure)
+    assert page.count("Plotly.newPlot") == 1  # only the glue calls it; no per-figure copy of the library
+    assert len(page) < 12_000_000
+
+
+def test_replay_has_one_frame_per_slider_step_and_its_cursors_move(folders):
+    figures = replays((folders["run"] / "report.html").read_text())
+    assert len(figures) == 3  # every recorded trial (the run records its first 20)
+    for figure in figures:
+        steps = figure["layout"]["sliders"][0]["steps"]
+        assert 2 <= len(steps) <= replay.MAX_FRAMES
+        assert [s["args"][0][0] for s in steps] == [f["name"] for f in figure["frames"]]
+        assert len(figure["layout"]["meta"]["frame_times"]) == len(steps)
+        first, last = figure["frames"][0], figure["frames"][-1]
+        assert first["traces"] == last["traces"] and len(first["traces"]) >= 3  # ant + two heatmap cursors
+        ant = figure["data"][first["traces"][0]]
+        assert ant["name"] == "ant"
+        assert first["data"][0]["x"] != last["data"][0]["x"]  # the ant moved
+        assert first["data"][1]["x"][0] < last["data"][1]["x"][0]  # the heatmap cursor moved right
+    heatmaps = figures[0]["layout"]["images"]  # PNGs under the axes: Plotly would clear heatmap traces
+    assert len(heatmaps) == 2 and all(h["source"].startswith("data:image/png;base64,") for h in heatmaps)
+    assert {t["type"] for t in figures[0]["data"]} == {"scatter"}  # cpu4_memory and tb1_rates
+
+
+def test_replay_is_generic_over_recorded_shapes():
+    """A made-up recording: path + heading, a population, a two-channel sense, a world point, an image."""
+    n = 500
+    t = np.linspace(0, 10, n)
+    series = {"position_m": np.stack([np.c_[np.cos(t), np.sin(t)], np.c_[t, t]])[:, :, :],
+              "heading_rad": np.stack([t + np.pi / 2, np.full(n, np.pi / 4)]),
+              "time_s": np.stack([t, t]), "bump": np.random.default_rng(0).random((2, n, 8)),
+              "odour": np.zeros((2, n, 2)), "home_m": np.zeros((2, 2)), "view": np.ones((2, 5, 20))}
+    series["position_m"][1, 400:] = np.nan  # trial 1 is shorter: padded
+    data = replay.trial_data(series, 1)
+    assert len(data.path) == 400
+    assert [name for name, _ in data.panels] == ["bump", "odour"]
+    assert [name for name, _ in data.world_points] == ["home_m"]
+    assert [name for name, _ in data.images] == ["view"]
+    fig = replay.figure(data)
+    assert len(fig["frames"]) == replay.MAX_FRAMES == len(fig["layout"]["sliders"][0]["steps"])
+    end = fig["frames"][-1]["data"][0]
+    assert end["x"][0] == pytest.approx(t[399]) and end["x"][1] > end["x"][0]  # heading pi/4: up and right
+    assert end["y"][1] > end["y"][0]
+
+
+def test_several_folders_side_by_side(folders, tmp_path):
+    out = tmp_path / "both.html"
+    assert cli.main(["report", str(folders["run"]), str(folders["compare"]), "--out", str(out)]) == 0
+    page = out.read_text()
+    assert "<h2>comparison</h2>" in page and "class='columns'" in page
+    assert page.count("<section>") >= 2
+    assert "metric (mean ± std)" in page
+
+
+def test_sweep_and_compare_reports(folders):
+    sweep = (folders["sweep"] / "report.html").read_text()
+    assert "noise=0.1" in sweep and "noise=0.3" in sweep and "comparisons between grid points" in sweep
+    assert len(replays(sweep)) == 6  # 2 points x 3 trials
+    compare = (folders["compare"] / "report.html").read_text()
+    assert "metrics by backend" in compare and "kinematic" in compare
+    assert len(replays(compare)) == 3
+
+
+@pytest.mark.parametrize("case", ["missing", "empty folder", "a file", "out folder missing", "out under a file",
+                                  "negative replays"])
+def test_bad_input_exits_2_with_one_line(folders, tmp_path, capsys, case):
+    run = str(folders["run"])
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "file").write_text("x")
+    argv = {"missing": ["report", str(tmp_path / "nope")],
+            "empty folder": ["report", str(tmp_path / "empty")],
+            "a file": ["report", str(tmp_path / "file")],
+            "out folder missing": ["report", run, "--out", str(tmp_path / "no" / "r.html")],
+            "out under a file": ["report", run, "--out", str(tmp_path / "file" / "r.html")],
+            "negative replays": ["report", run, "--replays", "-1"]}[case]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("neuronav: error: "), err
+    assert "report" in err or "--replays" in err
+    assert "Traceback" not in err
+
+
+WORLD_RUNS = {  # scenario -> (tiny settings, the world's traces its replay must draw)
+    "visual-compass": (["--set", "duration_s=1.3"], {"objects_m"}),
+    "odour-trail": (["--set", "timeout_s=1.3"], {"trail_m", "finish_line_m"}),
+    "cue-integration": (["--set", "timeout_s=1.28", "--set", "trees=6", "--set", "snapshots=4"],
+                        {"objects_m", "nest_m", "snapshots_m"}),
+    "plume-tracking": (["--set", "timeout_s=0.7", "--set", "warmup_s=0.5"], {"puffs_m", "source", "plume_raster"}),
+}
+
+
+@pytest.mark.parametrize("scenario", sorted(WORLD_RUNS))
+def test_replay_draws_the_recorded_world(scenario, tmp_path):
+    """Each trial records its world (objects as x, y, radius_m; trails; the plume raster with its axes), and
+    the replay draws it by name, in world coordinates: objects as circles of their radius."""
+    import h5py
+
+    settings, expected = WORLD_RUNS[scenario]
+    out = tmp_path / "run"
+    assert cli.main(["run", scenario, "--trials", "2", *settings, "--backend", "kinematic", "--no-figures",
+                     "--no-progress", "--out", str(out), "--report"]) == 0
+    with h5py.File(out / "timeseries.h5") as h5:
+        recorded = {name: h5[name][()] for name in h5}
+    figures = replays((out / "report.html").read_text())
+    assert len(figures) == 2
+    for trial, figure in enumerate(figures):
+        names = {trace["name"] for trace in figure["data"]}
+        assert expected <= names, (scenario, trial, expected - names)
+        if "objects_m" in expected:
+            objects = recorded["objects_m"][trial]
+            assert objects.shape[1] == 3 and np.isfinite(objects).all()
+            drawn = next(t for t in figure["data"] if t["name"] == "objects_m")
+            x = np.array([np.nan if v is None else v for v in drawn["x"]], float)
+            first = x[: np.flatnonzero(np.isnan(x))[0]]  # the first circle
+            centre_x, _, radius_m = objects[0]
+            to_cm = 0.006  # drawn to the mm, to the cm when turning (the compass's scene, at yaw 0 at first)
+            assert (first.min(), first.max()) == pytest.approx((centre_x - radius_m, centre_x + radius_m), abs=to_cm)
+    if scenario == "visual-compass":  # its five objects 13-17 m away: the cylinder (r 2 m) 14 m off, the ball (r 3 m)
+        objects = recorded["objects_m"][1]
+        assert np.hypot(objects[:, 0], objects[:, 1]) == pytest.approx([14.0, 13.0, 16.0, 17.0, 15.0])
+        assert objects[:, 2] == pytest.approx([2.0, 3.0, 3.0, 2.0, 3.6])  # boxes: the larger half-extent
+        # The scene turns (counter-clockwise about the origin): the last frame draws them turned by the last yaw.
+        index = next(i for i, t in enumerate(figures[1]["data"]) if t["name"] == "objects_m")
+        last = figures[1]["frames"][-1]
+        drawn = last["data"][last["traces"].index(index)]
+        yaw = recorded["scene_yaw_rad"][1][np.isfinite(recorded["scene_yaw_rad"][1])][-1]
+        assert abs(yaw) > 0.005
+        x = np.array([np.nan if v is None else v for v in drawn["x"]], float)
+        y = np.array([np.nan if v is None else v for v in drawn["y"]], float)
+        end = np.flatnonzero(np.isnan(x))[0]
+        centre = ((x[:end].min() + x[:end].max()) / 2, (y[:end].min() + y[:end].max()) / 2)
+        turned = (objects[0, 0] * np.cos(yaw) - objects[0, 1] * np.sin(yaw), objects[0, 0] * np.sin(yaw)
+                  + objects[0, 1] * np.cos(yaw))
+        assert centre == pytest.approx(turned, abs=0.02)
+    if scenario == "plume-tracking":  # the snapshot lies under the path over the arena (8 x 4 m), row 0 at the top
+        x_m, y_m = recorded["plume_raster_x_m"][0], recorded["plume_raster_y_m"][0]
+        assert x_m.shape == (recorded["plume_raster"].shape[2],) and y_m[0] > y_m[-1]
+        image = next(i for i in figures[0]["layout"]["images"] if i["xref"] == "x")
+        assert image["sizex"] == pytest.approx(8.0) and image["sizey"] == pytest.approx(4.0)
+        assert image["x"] == pytest.approx(0.0) and image["y"] == pytest.approx(2.0)
+
+
+def test_replay_draws_a_map_with_decreasing_y_row_0_at_the_top():
+    """A map whose y axis decreases (a plume raster: row 0 at the largest y) is drawn with row 0 at the top."""
+    import io
+
+    from PIL import Image
+
+    n = 20
+    raster = np.zeros((4, 6))
+    raster[0] = 1.0  # the largest y
+    series = {"position_m": np.c_[np.linspace(0, 5, n), np.zeros(n)][None], "plume_raster": raster[None],
+              "plume_raster_x_m": np.arange(6.0)[None] + 0.5, "plume_raster_y_m": np.array([[1.5, 0.5, -0.5, -1.5]])}
+    data = replay.trial_data(series, 0)
+    assert [name for name, *_ in data.world_maps] == ["plume_raster"] and not data.images
+    image = replay.figure(data)["layout"]["images"][0]
+    assert (image["x"], image["y"], image["sizex"], image["sizey"]) == (0.0, 2.0, 6.0, 4.0)
+    png = np.asarray(Image.open(io.BytesIO(base64.b64decode(image["source"].split(",", 1)[1]))).convert("L"), float)
+    assert png[0].mean() < png[-1].mean() - 50  # the top row dark (high in "Blues"), the bottom light
+
+
+def test_replay_draws_a_3d_path_from_above_beside_its_world_lines():
+    """A body's ``position_m`` (T, 3) (locomotion) is its path seen from above; ``wall_line_m`` a world line."""
+    n = 30
+    series = {"position_m": np.c_[np.linspace(0, 0.5, n), np.zeros(n), np.full(n, 0.4)][None],
+              "wall_line_m": np.array([[[1.0, -1.0], [1.0, 1.0]]]), "trail_m": np.c_[np.zeros(n), np.arange(n)][None]}
+    data = replay.trial_data(series, 0)
+    assert data.path_name == "position_m" and data.path.shape == (n, 2)
+    assert [name for name, _ in data.world_lines] == ["wall_line_m", "trail_m"]  # a trail as long as the path too
+    assert not data.panels
+
+
+def test_replay_heading_tick_is_clockwise_from_plus_y():
+    """The heading tick follows the backends' convention (clockwise from +y): heading 0 points up, pi/2 right."""
+    n = 10
+    series = {"position_m": np.c_[np.zeros(n), np.linspace(0, 1, n)][None],
+              "heading_rad": np.r_[np.zeros(n // 2), np.full(n - n // 2, np.pi / 2)][None]}
+    fig = replay.figure(replay.trial_data(series, 0))
+    first, last = fig["frames"][0]["data"][0], fig["frames"][-1]["data"][0]
+    assert first["x"][1] == pytest.approx(first["x"][0]) and first["y"][1] > first["y"][0]  # up
+    assert last["x"][1] > last["x"][0] and last["y"][1] == pytest.approx(last["y"][0])  # right

@@ -1,0 +1,159 @@
+"""What the videos show (issue 26): the overlay's camera math, the kinematic backend's view from above,
+the plume's puffs on every backend, the objects of the compass world and the brain's inset."""
+
+import numpy as np
+import pytest
+
+from neuronav import registry
+from neuronav.engine.articulated import FollowView
+from neuronav.engine.loop import AgentLoop, Clocks
+from neuronav.engine.video_overlay import (
+    PUFF_RGB,
+    PerspectiveCamera,
+    PopulationInset,
+    VideoContent,
+    VideoOverlay,
+    camera_of,
+)
+from neuronav.engine.video_topview import TopView
+from neuronav.runs.cli import main
+from neuronav.spec.world import PointAgents, World, WorldObject
+
+imageio = pytest.importorskip("imageio.v2")
+
+
+def read_frames(out):
+    videos = list(out.rglob("*.mp4"))
+    assert len(videos) == 1, videos
+    with imageio.get_reader(videos[0]) as reader:
+        return [np.asarray(frame).astype(int) for frame in reader]
+
+
+def puff_pixels(frame: np.ndarray) -> int:
+    """Pixels of the puffs' magenta (after the video's compression), which no ground, sky or object has."""
+    r, g, b = frame[..., 0], frame[..., 1], frame[..., 2]
+    return int(((r > 200) & (g < 100) & (b > 150)).sum())
+
+
+def near_colour(frame: np.ndarray, rgb, tolerance: int = 40) -> int:
+    return int((np.abs(frame - np.asarray(rgb, int)).max(axis=-1) <= tolerance).sum())
+
+
+# -- the camera math -------------------------------------------------------------------------------------
+def test_perspective_camera_puts_a_world_point_where_the_pinhole_model_says():
+    view = FollowView(eye=np.array([0.0, -5.0, 0.0]), target=np.zeros(3), up=np.array([0.0, 0.0, 1.0]),
+                      distance_m=5.0, fov_deg=45.0, size_px=(640, 480))
+    camera = PerspectiveCamera(view)
+    focal = 240.0 / np.tan(np.radians(22.5))
+    uv, scale, front = camera.project(np.array([[1.0, 0.0, 0.5], [0.0, 0.0, 0.0], [0.0, -6.0, 0.0]]))
+    # 1 m right and 0.5 m up at 5 m depth: right of and above the centre ((W - 1) / 2, (H - 1) / 2).
+    assert uv[0] == pytest.approx([319.5 + focal / 5.0, 239.5 - focal * 0.5 / 5.0])
+    assert uv[1] == pytest.approx([319.5, 239.5])
+    assert scale[0] == pytest.approx(focal / 5.0)
+    assert front.tolist() == [True, True, False]  # the last point is behind the eye
+
+
+def test_top_view_maps_metres_to_pixels_with_y_up():
+    view = TopView(centre_m=(1.0, 2.0), m_per_px=0.1, size_px=(640, 480))
+    uv = view.project(np.array([[1.0, 2.0, 0.0], [2.0, 2.0, 0.0], [1.0, 3.0, 0.0]]))[0]
+    np.testing.assert_allclose(uv, [[319.5, 239.5], [329.5, 239.5], [319.5, 229.5]])
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+def test_overlay_projection_lands_on_the_engines_own_picture_of_a_ball(engine):
+    """A red ball rendered by the engine's follow camera sits where the overlay projects its centre."""
+    pytest.importorskip(engine)
+    from neuronav.bodies.desert_ant import desert_ant
+
+    world = World(objects=(WorldObject("sphere", (0.8, 1.6, 0.1), (0.1,), (1.0, 0.0, 0.0, 1.0)),))
+    with registry.load("backend", engine)(timestep_s=0.002) as backend:
+        backend.load(world, [desert_ant()])
+        backend.reset(seed=0, yaw_rad=np.pi / 2)
+        image = backend.render("follow").astype(int)
+        uv = camera_of(backend).project(np.array([0.8, 1.6, 0.1]))[0]
+    rows, cols = np.nonzero((image[..., 0] > 150) & (image[..., 1] < 60) & (image[..., 2] < 60))
+    assert rows.size > 100
+    assert np.hypot(cols.mean() - uv[0], rows.mean() - uv[1]) < 3.0, (cols.mean(), rows.mean(), uv)
+
+
+# -- videos ---------------------------------------------------------------------------------------------------
+def test_kinematic_plume_video_films_from_above_and_shows_the_puffs(tmp_path):
+    out = tmp_path / "run"
+    assert main(["run", "plume-tracking", "--backend", "kinematic", "--set", "timeout_s=1.28", "--video",
+                 "--out", str(out)]) == 0
+    frames = read_frames(out)
+    assert frames[0].shape == (480, 640, 3)
+    assert min(puff_pixels(f) for f in frames) > 50
+    assert near_colour(frames[-1], (200, 0, 0)) > 20  # the source
+
+
+def test_kinematic_compass_video_shows_the_five_objects(tmp_path):
+    from neuronav.scenarios.worlds.scenes import compass_scene
+
+    out = tmp_path / "run"
+    assert main(["run", "visual-compass", "--backend", "kinematic", "--set", "duration_s=1.28", "--video",
+                 "--out", str(out)]) == 0
+    frame = read_frames(out)[-1]
+    for obj in compass_scene().objects:
+        assert near_colour(frame, np.asarray(obj.rgba[:3]) * 255, 30) > 200, obj
+
+
+@pytest.mark.parametrize("engine", ["mujoco", "pybullet"])
+def test_physics_plume_video_shows_the_puffs(tmp_path, engine):
+    pytest.importorskip(engine)
+    out = tmp_path / "run"
+    assert main(["run", "plume-tracking", "--backend", engine, "--set", "timeout_s=0.512", "--video",
+                 "--out", str(out)]) == 0
+    frames = read_frames(out)
+    assert len(frames) == 8
+    assert min(puff_pixels(f) for f in frames) > 50
+
+
+def test_puff_colour_is_what_the_tests_look_for():
+    assert puff_pixels(np.array([[PUFF_RGB]])) == 1
+
+
+# -- insets ----------------------------------------------------------------------------------------------------
+def test_population_inset_moves_with_the_bump():
+    backend = registry.load("backend", "kinematic")()
+    backend.load(World(), [PointAgents(count=1, mode="unicycle")])
+    loop = AgentLoop(backend, None, Clocks(physics_dt_s=0.008, control_dt_s=0.008, brain_dt_s=0.64))
+    loop.reset(seed=0)
+    rates = np.zeros(8)
+    overlay = VideoOverlay(VideoContent(insets=(PopulationInset("TB1", lambda _: rates),)))
+    frames = []
+    for peak in (1, 5):
+        rates[:] = np.exp(-0.5 * (np.arange(8) - peak) ** 2)
+        loop.step()
+        frames.append(overlay(backend.render("follow"), loop).astype(int))
+    corner = np.s_[-100:, :220]  # the insets' corner
+    difference = np.abs(frames[1][corner] - frames[0][corner]).sum(axis=-1)
+    assert (difference > 100).sum() > 200
+    # The two bumps sit apart: the first frame's brightest bar is left of the second's.
+    bright = [np.nonzero(f[corner][..., 0] > 200)[1].mean() for f in frames]
+    assert bright[0] < bright[1]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["path-integration"], "the stone2017 protocol has none"),
+    (["cue-integration"], "on kinematic its trials run as one batch"),
+    (["route-following", "--set", "forest_seed=3"], "the trials run as one batch"),
+])
+def test_video_of_a_batch_without_an_agent_loop_is_refused_before_any_trial(tmp_path, capsys, args, message):
+    out = tmp_path / "run"
+    assert main(["run", *args, "--backend", "kinematic", "--video", "--out", str(out)]) == 2
+    assert message in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_a_boxs_blend_is_the_blend_of_the_same_rectangle_as_a_mask():
+    from neuronav.engine.video_draw import blend, blend_box
+
+    image = np.random.default_rng(5).integers(0, 256, (40, 60, 3), dtype=np.uint8)
+    mask = np.zeros(image.shape[:2], bool)
+    mask[7:31, 12:50] = True
+    expected = image.copy()
+    blend(expected, mask, (25, 25, 25), 0.75)
+    blend_box(image, slice(7, 31), slice(12, 50), (25, 25, 25), 0.75)
+    np.testing.assert_array_equal(image, expected)
+    assert (expected[7:31, 12:50] < 90).all() and not (expected[:7] < 90).all()  # the box darkened, not the rest
