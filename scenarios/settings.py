@@ -7,11 +7,54 @@ same name means something else (another default, range or help) keeps its own fi
 The embodied-homing fields are shared by path integration's ``i2bot`` protocol and swarm homing, which
 takes embodied homing's CX and foraging defaults. Path integration's config also holds the point
 agents' settings, so there the help texts start with the protocol (``protocol="i2bot"``: ``"i2bot: "``).
+
+Settings that take one value or a comma list of them (conditions cycled over trials by seed) are read by
+:func:`choice_list` (names) and :func:`number_list` (numbers), with one wording for what they refuse.
 """
 
 from __future__ import annotations
 
+import numpy as np
+
 from neuronav.config import field
+from neuronav.errors import ConfigError
+
+
+def choice_list(setting: str, text, allowed: tuple[str, ...], repeats: bool = True) -> tuple[str, ...]:
+    """The names in ``text``: one of ``allowed`` or a comma list of them (``repeats=False``: each at most once).
+
+    Raises
+    ------
+    ConfigError
+        A name not in ``allowed`` (or a repeat), naming ``setting`` and what it takes.
+    """
+    values = tuple(v.strip() for v in str(text).split(","))
+    repeated = not repeats and len(set(values)) != len(values)
+    if any(v not in allowed for v in values) or repeated:
+        names = ", ".join(allowed[:-1]) + " or " + allowed[-1] if len(allowed) > 1 else allowed[0]
+        once = "" if repeats else " without repeats"
+        raise ConfigError(f"{setting}: expected {names}, or a comma list of them{once}, got {text!r}")
+    return values
+
+
+def number_list(setting: str, text, low: float, high: float, unit: str, what: str) -> tuple[float, ...]:
+    """The numbers in ``text``: one, or a comma list, each finite within [``low``, ``high``] (``unit``).
+
+    Raises
+    ------
+    ConfigError
+        Not numbers, or one out of range, naming ``setting``, the range and the unit; ``what`` names one value
+        ("angle", "offset").
+    """
+    span = f"{low:g}–{high:g}" if low >= 0 else f"{low:g} to {high:g}"
+    try:
+        values = tuple(float(v) for v in str(text).split(","))
+    except ValueError:
+        raise ConfigError(f"{setting}: expected an {what} or a comma list of them in {unit} ({span}), "
+                          f"got {text!r}") from None
+    if not all(np.isfinite(v) and low <= v <= high for v in values):
+        raise ConfigError(f"{setting}: every {what} must be within {span} {unit}, got {text!r}")
+    return values
 
 
 def _help(text: str, protocol: str) -> str:

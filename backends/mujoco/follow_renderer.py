@@ -125,12 +125,7 @@ class GLThread:
     def free_kept(self) -> None:
         """Free the kept contexts (on the thread) and end the thread (at exit, before EGL itself is ended)."""
         def free() -> None:
-            for contexts in self.free.values():
-                for context in contexts:
-                    try:
-                        context.free()
-                    except Exception:  # noqa: BLE001 -- interpreter shutdown: the driver may already be gone
-                        pass
+            gl_contexts.free_all(self.free)
             self.free = {}
 
         if self.pid == os.getpid() and self._thread.is_alive():

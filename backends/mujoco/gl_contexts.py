@@ -120,13 +120,19 @@ def free_kept() -> None:
     """Free the kept contexts of this process (at exit, before EGL itself is ended; or to start afresh)."""
     if _STATE.pid != os.getpid():
         return
-    for contexts in _STATE.free.values():
+    free_all(_STATE.free)
+    _STATE.free = {}
+
+
+def free_all(kept: dict) -> None:
+    """Free every context of ``kept`` (lists of contexts by size), whatever each free says: at interpreter
+    shutdown the driver may already be gone."""
+    for contexts in kept.values():
         for context in contexts:
             try:
                 context.free()
             except Exception:  # noqa: BLE001 -- interpreter shutdown: the driver may already be gone
                 pass
-    _STATE.free = {}
 
 
 def abandon(resource) -> None:

@@ -114,22 +114,12 @@ class CueIntegrationConfig:
 
 def conflicts_deg(config: CueIntegrationConfig) -> tuple[float, ...]:
     """The conflict angles of ``config.conflict_deg`` (one or a comma list, each 0–180)."""
-    try:
-        values = tuple(float(v) for v in str(config.conflict_deg).split(","))
-    except ValueError:
-        raise ConfigError(f"conflict_deg: expected an angle or a comma list of angles in degrees (0–180), "
-                          f"got {config.conflict_deg!r}") from None
-    if not values or not all(np.isfinite(v) and 0.0 <= v <= 180.0 for v in values):
-        raise ConfigError(f"conflict_deg: every angle must be within 0–180 degrees, got {config.conflict_deg!r}")
-    return values
+    return settings.number_list("conflict_deg", config.conflict_deg, 0.0, 180.0, "degrees", "angle")
 
 
 def cue_modes(config: CueIntegrationConfig) -> tuple[str, ...]:
     """The cues of ``config.cues`` (one, or a comma list of both, pi, vision)."""
-    values = tuple(v.strip() for v in str(config.cues).split(","))
-    if not values or any(v not in CUE_MODES for v in values):
-        raise ConfigError(f"cues: expected both, pi, vision or a comma list of them, got {config.cues!r}")
-    return values
+    return settings.choice_list("cues", config.cues, CUE_MODES)
 
 
 def trial_cue_modes(trials: list[dict], config: CueIntegrationConfig) -> list[str]:

@@ -44,6 +44,7 @@ from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import PHYSICS_BACKENDS
 from neuronav.scenarios.motor_noise import MotorNoise, stride_noise_field, turn_noise_field
+from neuronav.scenarios.settings import choice_list
 from neuronav.scenarios.variability import is_on, variability_field
 from neuronav.spec.body import BodySpec, quat_to_matrix
 from neuronav.spec.world import Ground, World
@@ -133,14 +134,7 @@ def gaits(config: LocomotionConfig) -> tuple[str, ...]:
     ConfigError
         An unknown or repeated gait.
     """
-    names = tuple(name.strip() for name in str(config.gait).split(","))
-    unknown = [name for name in names if name not in GAITS]
-    if unknown:
-        raise ConfigError(f"gait: {unknown[0]!r} is not one of {', '.join(GAITS)} (one, or a comma list of them); "
-                          f"got {config.gait!r}")
-    if len(set(names)) < len(names):
-        raise ConfigError(f"gait: each gait at most once in the list, got {config.gait!r}")
-    return names
+    return choice_list("gait", config.gait, tuple(GAITS), repeats=False)
 
 
 def trial_gait(config: LocomotionConfig, seed: int) -> str:

@@ -46,7 +46,6 @@ from neuronav.bodies.gaits import make_gait
 from neuronav.bodies.step_odometer import StepOdometer, UnicycleStrideOdometer
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
-from neuronav.errors import ConfigError
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
@@ -94,10 +93,7 @@ class OdometerConfig:
 
 def leg_conditions(config: OdometerConfig) -> tuple[str, ...]:
     """The leg conditions of ``config.legs`` (one, or a comma list cycled over trials by seed)."""
-    values = tuple(v.strip() for v in str(config.legs).split(","))
-    if not values or any(v not in LEG_CONDITIONS for v in values):
-        raise ConfigError(f"legs: expected normal, stilts, stumps or a comma list of them, got {config.legs!r}")
-    return values
+    return settings.choice_list("legs", config.legs, LEG_CONDITIONS)
 
 
 def trial_legs(config: OdometerConfig, seed: int) -> str:

@@ -39,6 +39,7 @@ from neuronav.bodies.step_odometer import StepOdometer, UnicycleStrideOdometer
 from neuronav.engine.loop import AgentLoop, Hook
 from neuronav.engine.sampling import Sampler
 from neuronav.errors import ConfigError
+from neuronav.scenarios.settings import choice_list
 from neuronav.senses.dorsal_rim import DorsalRim, rotations_from_quaternions
 from neuronav.senses.optic_flow import camera_displacement_m, image_shift_px
 from neuronav.senses.sky import Sky
@@ -58,11 +59,7 @@ KINEMATIC_VENTRAL_HEIGHT_M = 0.4
 
 
 def _choices(config, name: str, allowed: tuple[str, ...]) -> tuple[str, ...]:
-    values = tuple(v.strip() for v in str(getattr(config, name)).split(","))
-    if not values or any(v not in allowed for v in values) or len(set(values)) != len(values):
-        raise ConfigError(f"{name}: expected {' or '.join(allowed)}, or a comma list of them without repeats, "
-                          f"got {getattr(config, name)!r}")
-    return values
+    return choice_list(name, getattr(config, name), allowed, repeats=False)
 
 
 def compasses(config) -> tuple[str, ...]:

@@ -126,22 +126,12 @@ class RouteFollowingConfig:
 
 def strategies(config: RouteFollowingConfig) -> tuple[str, ...]:
     """The strategies of ``config.strategy`` (one, or a comma list cycled over trials by seed)."""
-    values = tuple(v.strip() for v in str(config.strategy).split(","))
-    if not values or any(v not in STRATEGIES for v in values):
-        raise ConfigError(f"strategy: expected scan, klinokinesis or a comma list of them, got {config.strategy!r}")
-    return values
+    return settings.choice_list("strategy", config.strategy, STRATEGIES)
 
 
 def release_offsets_m(config: RouteFollowingConfig) -> tuple[float, ...]:
     """The release offsets of ``config.release_offset_m`` (m; one, or a comma list cycled over trials)."""
-    try:
-        values = tuple(float(v) for v in str(config.release_offset_m).split(","))
-    except ValueError:
-        raise ConfigError(f"release_offset_m: expected an offset or a comma list of offsets in metres (-10 to 10), "
-                          f"got {config.release_offset_m!r}") from None
-    if not all(np.isfinite(v) and -10.0 <= v <= 10.0 for v in values):
-        raise ConfigError(f"release_offset_m: every offset must be within -10 to 10 m, got {config.release_offset_m!r}")
-    return values
+    return settings.number_list("release_offset_m", config.release_offset_m, -10.0, 10.0, "m", "offset")
 
 
 def trial_release_offset_m(config: RouteFollowingConfig, seed: int) -> float:

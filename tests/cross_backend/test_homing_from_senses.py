@@ -135,7 +135,7 @@ def test_settings_that_cannot_run_are_refused_before_any_trial():
         scenario.check(apply_overrides(PathIntegrationConfig, {"compass": "true,sky"}), "kinematic")
     with pytest.raises(ConfigError, match="compass: expected true or sky"):
         apply_overrides(PathIntegrationConfig, {"compass": "moon"})
-    with pytest.raises(ConfigError, match="odometry: expected true or steps"):
+    with pytest.raises(ConfigError, match="odometry: expected true, steps or optic_flow, .* without repeats"):
         apply_overrides(PathIntegrationConfig, {"odometry": "steps,steps"})
 
 

@@ -214,7 +214,8 @@ def test_video_is_an_mp4(tmp_path):
 @pytest.mark.parametrize("setting, fragment", [
     ("gait=gallop", "gait"), ("terrain=ice", "terrain"), ("adhesion_n=-5", "adhesion_n"),
     ("turn=2", "turn"), ("duration_s=0", "duration_s"), ("gait=tripod,gallop", "gallop"),
-    ("gait=tripod,tripod", "at most once"), ("turn_noise_sd=-1", "turn_noise_sd"), ("variability=maybe", "variability"),
+    ("gait=tripod,tripod", "without repeats"), ("turn_noise_sd=-1", "turn_noise_sd"),
+    ("variability=maybe", "variability"),
 ])
 def test_bad_settings_are_config_errors(setting, fragment):
     with pytest.raises(ConfigError, match=fragment):

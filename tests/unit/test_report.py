@@ -136,6 +136,21 @@ def test_bad_input_exits_2_with_one_line(folders, tmp_path, capsys, case):
     assert "Traceback" not in err
 
 
+def test_a_report_writes_over_its_own_page_only(folders, tmp_path, capsys):
+    """--out over a file neuronav did not write (or a link) is refused with exit 2, the file untouched."""
+    run = str(folders["run"])
+    foreign, link, own = tmp_path / "notes.html", tmp_path / "link.html", tmp_path / "own.html"
+    foreign.write_text("<html>someone's notes</html>")
+    link.symlink_to(foreign)
+    for target in (foreign, link):
+        assert cli.main(["report", run, "--out", str(target)]) == 2
+        assert foreign.read_text() == "<html>someone's notes</html>"
+        assert "will not write over" in capsys.readouterr().err
+    assert cli.main(["report", run, "--out", str(own)]) == 0
+    assert cli.main(["report", run, "--out", str(own)]) == 0  # its own page again: rewritten
+    assert own.read_text().count("<!DOCTYPE html>") == 1
+
+
 WORLD_RUNS = {  # scenario -> (tiny settings, the world's traces its replay must draw)
     "visual-compass": (["--set", "duration_s=1.3"], {"objects_m"}),
     "odour-trail": (["--set", "timeout_s=1.3"], {"trail_m", "finish_line_m"}),

@@ -62,6 +62,10 @@ document.addEventListener('toggle',neuronavDrawShown,true);  // toggle does not 
 """
 
 
+PAGE_START = "<!DOCTYPE html><html><head><meta charset='utf-8'><meta name='generator' content='neuronav report'>"
+"""How every report begins: a file that does not is not overwritten (a report writes only over its own)."""
+
+
 def default_out(paths: list[Path]) -> Path:
     """Where the report goes without ``--out``: ``report.html`` in the folder (several: the current folder)."""
     return Path(paths[0]) / "report.html" if len(paths) == 1 else Path("report.html")
@@ -107,7 +111,7 @@ def render(folders: list[RunFolder], page_dir: Path, max_replays: int = MAX_REPL
     names = ", ".join(f.label for f in folders)
     first = folders[0].summary
     title = f"neuronav report: {first.get('scenario', '')} ({names})"
-    return (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+    return (f"{PAGE_START}<title>{html.escape(title)}</title>"
             f"<style>{STYLE}</style><script type='text/javascript'>{get_plotlyjs()}</script>"
             f"<script type='text/javascript'>{GLUE}</script></head><body><h1>{html.escape(title)}</h1>"
             f"{body}{''.join(builder.figures)}</body></html>")
@@ -246,5 +250,13 @@ def _check_writable(target: Path) -> None:
         raise ConfigError(f"report: cannot write {str(target)!r}: folder {str(parent)!r} does not exist")
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ConfigError(f"report: cannot write {str(target)!r}: folder {str(parent)!r} is not writable")
-    if target.exists() and not os.access(target, os.W_OK):
-        raise ConfigError(f"report: cannot write {str(target)!r}: the file is not writable")
+    if target.is_symlink() or (target.exists() and not target.is_file()):
+        raise ConfigError(f"report: will not write over {str(target)!r}: it is not a regular file")
+    if target.exists():
+        if not os.access(target, os.W_OK):
+            raise ConfigError(f"report: cannot write {str(target)!r}: the file is not writable")
+        with open(target, "rb") as stream:
+            start = stream.read(len(PAGE_START.encode()))
+        if start != PAGE_START.encode():
+            raise ConfigError(f"report: will not write over {str(target)!r}: it is not a report neuronav wrote "
+                              "(give another --out, or remove the file)")
