@@ -30,6 +30,7 @@ QUICK = {
     "vector_env": ("--envs", "1000", "--steps", "3", "--single-steps", "3", "--repeats", "1"),
     "report_load": ("--trials", "3", "--steps", "100", "--repeats", "1", "--no-browser"),
     "video_cost": ("--seconds", "0.3", "--repeats", "1"),
+    "binocular_read": ("--reads", "3", "--repeats", "1"),
 }
 NUMBER = r"(\d+(?:\.\d+)?)"
 
@@ -131,3 +132,11 @@ def test_locomotion_raw_side_does_the_same_walk_as_the_loop(backend):
     assert loop_low_m > 0.35 and raw_low_m == pytest.approx(loop_low_m, rel=0.05)  # both stayed up (0.43 m at rest)
     assert row.group(5) == "yes"
     assert "SAME WALK: yes" in out
+
+
+def test_binocular_read_compares_both_ways_in_both_worlds():
+    out = output_of("binocular_read")
+    for world in ("open", "forest"):
+        for how in ("together", "one eye at a time"):
+            assert re.search(rf"^{world}\s+{how}\s+{NUMBER}\s+{NUMBER}\s*$", out, re.MULTILINE), out
+        assert re.search(rf"^{world}\s+together saves -?\d+% of the CPU time", out, re.MULTILINE), out
