@@ -23,9 +23,10 @@ $(VENV)/.installed-all: pyproject.toml | $(BIN)/python
 # The ant walks home on MuJoCo (3 embodied homing trials, a video of the first), then Stone et
 # al. 2017's 1000 point agents home in one batch on the kinematic backend.
 demo: $(VENV)/.installed-all
-	MUJOCO_GL=egl $(BIN)/neuronav run path-integration --backend mujoco --trials 3 --video --out $(DEMO_OUT)
+	MUJOCO_GL=egl $(BIN)/neuronav run path-integration --backend mujoco --trials 3 --video --report --out $(DEMO_OUT)
 	$(BIN)/neuronav run path-integration --trials 1000 --out $(DEMO_OUT)-stone2017
 	@echo "video: $(DEMO_OUT)/trial0.mp4"
+	@echo "report (open it in a browser): $(DEMO_OUT)/report.html"
 	@echo "figures: $$(ls $(DEMO_OUT)/*.png $(DEMO_OUT)-stone2017/*.png | tr '\n' ' ')"
 
 lint: $(VENV)/.installed-test

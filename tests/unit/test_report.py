@@ -250,3 +250,25 @@ def test_replay_heading_tick_is_clockwise_from_plus_y():
     first, last = fig["frames"][0]["data"][0], fig["frames"][-1]["data"][0]
     assert first["x"][1] == pytest.approx(first["x"][0]) and first["y"][1] > first["y"][0]  # up
     assert last["x"][1] > last["x"][0] and last["y"][1] == pytest.approx(last["y"][0])  # right
+
+
+def test_replay_breaks_angle_traces_at_wraps_and_tells_named_points_apart():
+    """A compass heading that turns twice round: its line has a gap at each ±180° crossing, no stroke across
+    the panel; a nest and a turn-back point get stars of different colours."""
+    n = 300
+    t = np.linspace(0, 10, n)
+    series = {"position_m": np.c_[t, 0 * t][None], "time_s": t[None],
+              "compass_heading_rad": np.linspace(0.0, 4 * np.pi, n)[None],
+              "nest_m": np.zeros((1, 2)), "turnback_m": np.array([[5.0, 1.0]])}
+    fig = replay.figure(replay.trial_data(series, 0))
+    line = next(trace for trace in fig["data"] if trace.get("name") == "compass_heading_rad")
+    y = line["y"]
+    if isinstance(y, dict):  # plotly's typed array: base64 of the numbers
+        y = np.frombuffer(base64.b64decode(y["bdata"]), dtype=y["dtype"])
+    y = np.array([np.nan if v is None else v for v in y], float)
+    assert np.isnan(y).sum() == 2
+    steps = np.abs(np.diff(y))
+    assert np.all(steps[np.isfinite(steps)] < np.pi) and np.nanmax(np.abs(y)) <= np.pi
+    stars = {trace["name"]: trace["marker"]["color"] for trace in fig["data"] if trace.get("name") in
+             ("nest_m", "turnback_m")}
+    assert len(stars) == 2 and stars["nest_m"] != stars["turnback_m"]

@@ -58,6 +58,8 @@ CURSOR_COLOUR = "#111111"
 HEATMAP_CURSOR_COLOUR = "#ff00ff"
 """The time cursor over a heatmap (magenta: not in the viridis colour map)."""
 WORLD_COLOUR = "#7f7f7f"
+POINT_COLOURS = ("#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#17becf")
+"""The colours of a world's named points (nest, turn-back point, source, goal) in their recorded order."""
 
 
 @dataclass
@@ -252,6 +254,20 @@ def _controls(frame_times: np.ndarray, unit: str) -> dict:
                                  {"label": "pause", "method": "animate", "args": [[None], animate]}]}]}
 
 
+def is_angle(name: str) -> bool:
+    """Whether a recorded series is an angle that wraps at ±π (a heading or phase in radians)."""
+    return name.endswith("_rad") and any(word in name for word in ("heading", "phase", "yaw", "bearing"))
+
+
+def broken_at_wraps(time: np.ndarray, angle_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``angle_rad`` wrapped to [-π, π) with a NaN (a gap in the drawn line) wherever it wraps, so that a
+    ±180° crossing draws no vertical stroke across the panel."""
+    wrapped = np.mod(np.asarray(angle_rad, float) + np.pi, 2 * np.pi) - np.pi
+    with np.errstate(invalid="ignore"):
+        jumps = np.flatnonzero(np.abs(np.diff(wrapped)) > np.pi) + 1
+    return np.insert(np.asarray(time, float), jumps, np.nan), np.insert(wrapped, jumps, np.nan)
+
+
 def _time_panels(fig, go, data: TrialData, cursors: list) -> None:
     """The right column: each population as a heatmap, each other series as lines, over one time axis,
     each with a vertical time cursor (appended to ``cursors``)."""
@@ -268,7 +284,10 @@ def _time_panels(fig, go, data: TrialData, cursors: list) -> None:
             columns = values if values.ndim == 2 else values[:, None]
             for j in range(columns.shape[1]):
                 label = name if columns.shape[1] == 1 else f"{name}[{j}]"
-                fig.add_trace(go.Scatter(x=times[keep], y=columns[keep, j], mode="lines", name=label,
+                x, y = times[keep], columns[keep, j]
+                if is_angle(name):
+                    x, y = broken_at_wraps(x, y)
+                fig.add_trace(go.Scatter(x=x, y=y, mode="lines", name=label,
                                          showlegend=False, line={"width": 1}), row=row, col=2)
             finite = columns[np.isfinite(columns)]
             low, high = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
@@ -317,10 +336,11 @@ def _draw_world(fig, go, data: TrialData) -> None:
         fig.add_trace(go.Scatter(mode="lines", name=name, fill="toself", fillcolor="rgba(127,127,127,0.25)",
                                  line={"color": WORLD_COLOUR, "width": 1}, **_objects_at(data, objects, 0.0)),
                       row=1, col=1)
-    for name, points in data.world_points:
-        few = len(points) <= 5  # a source, a home: stars; puffs, many homes: dots
+    for k, (name, points) in enumerate(data.world_points):
+        few = len(points) <= 5  # a source, a home: stars, each named point its own colour; puffs, many homes: dots
+        colour = POINT_COLOURS[k % len(POINT_COLOURS)] if few else "#9ecae1"
         fig.add_trace(go.Scatter(x=points[:, 0], y=points[:, 1], mode="markers", name=name,
-                                 marker={"color": "#2ca02c" if few else "#9ecae1", "size": 12 if few else 5,
+                                 marker={"color": colour, "size": 12 if few else 5,
                                          "symbol": "star" if few else "circle"}), row=1, col=1)
 
 
