@@ -42,6 +42,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from neuronav.runs.plotting import break_at_wraps
+
 MAX_FRAMES = 200
 """Slider steps of a replay at most (the frames of the animation)."""
 MAX_POINTS = 1500
@@ -259,15 +261,6 @@ def is_angle(name: str) -> bool:
     return name.endswith("_rad") and any(word in name for word in ("heading", "phase", "yaw", "bearing"))
 
 
-def broken_at_wraps(time: np.ndarray, angle_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``angle_rad`` wrapped to [-π, π) with a NaN (a gap in the drawn line) wherever it wraps, so that a
-    ±180° crossing draws no vertical stroke across the panel."""
-    wrapped = np.mod(np.asarray(angle_rad, float) + np.pi, 2 * np.pi) - np.pi
-    with np.errstate(invalid="ignore"):
-        jumps = np.flatnonzero(np.abs(np.diff(wrapped)) > np.pi) + 1
-    return np.insert(np.asarray(time, float), jumps, np.nan), np.insert(wrapped, jumps, np.nan)
-
-
 def _time_panels(fig, go, data: TrialData, cursors: list) -> None:
     """The right column: each population as a heatmap, each other series as lines, over one time axis,
     each with a vertical time cursor (appended to ``cursors``)."""
@@ -286,7 +279,7 @@ def _time_panels(fig, go, data: TrialData, cursors: list) -> None:
                 label = name if columns.shape[1] == 1 else f"{name}[{j}]"
                 x, y = times[keep], columns[keep, j]
                 if is_angle(name):
-                    x, y = broken_at_wraps(x, y)
+                    x, y = break_at_wraps(x, y)
                 fig.add_trace(go.Scatter(x=x, y=y, mode="lines", name=label,
                                          showlegend=False, line={"width": 1}), row=row, col=2)
             finite = columns[np.isfinite(columns)]
