@@ -8,8 +8,9 @@ defaults, with Mesa's software rasteriser (llvmpipe, one thread: see
 - **No multisampling** (:data:`FOLLOW_SAMPLES`): MuJoCo's default of 4 samples per pixel quadrupled the
   rasteriser's work, 30 ms of CPU per 640 × 480 frame against 7-8 ms without
   (``benchmarks/video_cost.py`` prints a trial's cost with and without video);
-- **coarser round shapes** (:data:`FOLLOW_SLICES`, :data:`FOLLOW_STACKS`: 16 × 8 against 28 × 16): 8.5 ms
-  a frame became 4.8 ms, the ant's segments still round at the size they span in the view;
+- **coarser round shapes** (:data:`FOLLOW_SLICES`, :data:`FOLLOW_STACKS`: 12 × 6 against 28 × 16): 8.5 ms
+  a frame became 4.8 ms at 16 × 8 and 3.9 ms at 12 × 6, the ant's segments still round at the size they span
+  in the view;
 - **one-colour textures sampled nearest** (a plain ground is one, see :mod:`neuronav.backends.mujoco.mjcf`):
   no mipmap lookups over the floor that fills most of the frame (1.5 ms a frame);
 - **no sky box where the view cannot see the sky** (:meth:`FollowRenderer.sees_sky`: the follow view looks
@@ -23,8 +24,8 @@ defaults, with Mesa's software rasteriser (llvmpipe, one thread: see
   what the frame shows into a scene (``mjv_updateScene``, on the caller's thread) and returns at once; the GL
   thread rasterises it (``mjr_render``, ``mjr_readPixels``: MuJoCo's bindings release the GIL in them) while
   the caller steps on, on the second core. :meth:`FollowRenderer.render` waits for it: the same picture.
-  A filmed odour-trail trial's loop thread costs 1.4 x the trial without video, its process 3.1 x
-  (``python benchmarks/video_cost.py``: ``loop s``, ``cpu s``).
+  A filmed odour-trail trial's loop thread costs 1.3 x the trial without video, its process 3.0 x and its
+  wall time 2.0-2.3 x (``python benchmarks/video_cost.py``: ``loop s``, ``cpu s``, ``wall s``).
 
 The GL rows run bottom-up; :meth:`FollowRenderer.render` returns the image top row first, as
 ``mujoco.Renderer`` does.
@@ -49,14 +50,17 @@ from neuronav.senses.vision import GROUND_REACH_M
 # Samples per pixel of the follow view (0: none; MuJoCo's default is 4).
 FOLLOW_SAMPLES = 0
 # The follow view's spheres, capsules and ellipsoids: slices around and stacks along (MuJoCo's default 28 and 16).
-# The ant's rounded segments span tens of pixels in the view; the default's vertices cost 40 % of its frame.
-FOLLOW_SLICES, FOLLOW_STACKS = 16, 8
+# The ant's rounded segments span tens of pixels in the view; the default's vertices cost 40 % of its frame, and
+# 16 x 8 still 1.6 ms of a 4.5 ms frame against 1.05 ms at 12 x 6 (no difference to see at 640 x 480).
+FOLLOW_SLICES, FOLLOW_STACKS = 12, 6
 # The shadow map's side (px) when no light of the model casts a shadow.
 NO_SHADOW_PX = 1
-# Geoms the follow view's scene holds (mujoco.Renderer's default).
-FOLLOW_MAX_GEOM = 10000
-# Scenes a renderer fills in turn: one can be rasterised on the GL thread while the caller fills the next.
-FOLLOW_SCENES = 2
+# Geoms the follow view's scene holds beyond the model's geoms and sites (mujoco.Renderer's 10000 for every model
+# took 19 ms per scene to allocate, twice per trial).
+FOLLOW_SPARE_GEOMS = 100
+# Scenes a renderer fills in turn: the GL thread rasterises the older ones while the caller fills the next, and
+# the caller waits only when it is this many frames ahead (2 stalled a filmed trial's loop more often).
+FOLLOW_SCENES = 8
 # Free GL contexts the GL thread keeps per buffer size for the next renderer (the next trial's).
 KEPT_CONTEXTS = 2
 
@@ -188,7 +192,8 @@ class FollowRenderer:
         self._worker = gl_thread()
         self._gl = None
         self._worker.call(self._make_context, model)
-        self._scenes = [mujoco.MjvScene(model, maxgeom=FOLLOW_MAX_GEOM) for _ in range(FOLLOW_SCENES)]
+        max_geom = int(model.ngeom + model.nsite + model.ntendon) + FOLLOW_SPARE_GEOMS
+        self._scenes = [mujoco.MjvScene(model, maxgeom=max_geom) for _ in range(FOLLOW_SCENES)]
         self._pending: list[Future | None] = [None] * FOLLOW_SCENES
         self._next = 0
         self._perturb = mujoco.MjvPerturb()

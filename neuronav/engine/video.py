@@ -26,11 +26,16 @@ from neuronav.errors import ConfigError
 
 # Frames per control step: every 4th 8 ms step, 31.25 frames per second of simulated time.
 DEFAULT_EVERY = 4
-# The MP4s' encoding (imageio's ffmpeg writer): H.264 at quality 7 of 10 (crf 15), x264's "veryfast" preset
-# (0.33 s of the encoder's CPU for 63 frames of 640 x 480 against 0.56 s at its default "medium", 10 % larger files).
-ENCODER = {"codec": "libx264", "quality": 7, "macro_block_size": 8, "ffmpeg_params": ["-preset", "veryfast"]}
-# Frames a FrameWriter holds for its thread before append waits (a 640 x 480 frame is 0.9 MB).
-QUEUED_FRAMES = 8
+# The MP4s' encoding (imageio's ffmpeg writer): H.264 at quality 7 of 10 (crf 15), x264's "ultrafast" preset on one
+# thread: the encoder shares the machine's second core with the follow view's rasteriser (benchmarks/video_cost.py).
+# Re-encoding one filmed trial's 125 frames of 640 x 480 took 0.54 s of the encoder's CPU at "veryfast" (386 kB),
+# 0.41 s at "superfast" (802 kB) and 0.25 s at "ultrafast" on one thread (1143 kB): files 3x larger, still
+# about 140 kB per second of video.
+ENCODER = {"codec": "libx264", "quality": 7, "macro_block_size": 8,
+           "ffmpeg_params": ["-preset", "ultrafast", "-threads", "1"]}
+# Frames a FrameWriter holds for its thread before append waits (a 640 x 480 frame is 0.9 MB): room for the
+# writer to fall behind the loop for a while and catch up later, rather than stall it (8 waited more).
+QUEUED_FRAMES = 16
 # Whether a VideoRecorder draws its frames beside the loop, on its writer's thread (see VideoRecorder).
 DRAW_BESIDE_LOOP = True
 
