@@ -552,8 +552,8 @@ class RouteFollowing(Scenario):
                                    "final_distance_to_goal_m", "test_time_s"))
 
     def leading_series(self, config: RouteFollowingConfig, backend: str) -> dict[str, int]:
-        """The route (the same in every trial) and the first trial's landscape, stored once."""
-        return dict.fromkeys(("route_m", "landscape_x_m", "landscape_y_m", "landscape_novelty"), 1)
+        """The first trial's landscape, stored once."""
+        return dict.fromkeys(("landscape_x_m", "landscape_y_m", "landscape_novelty"), 1)
 
     def check(self, config: RouteFollowingConfig, backend: str) -> None:
         from neuronav.engine.loop import integer_ratio
@@ -596,14 +596,17 @@ class RouteFollowing(Scenario):
 
 
 def pack_route_logs(logs: list[dict], config: RouteFollowingConfig) -> dict[str, np.ndarray]:
-    """The trials' logs as NaN-padded arrays (trials, cycles, ...), each trial's world (its forest and the
-    route's end ``goal_m``), the route and the first trial's landscape."""
+    """The trials' logs as NaN-padded arrays (trials, cycles, ...), each trial's world (its forest, the route
+    ``route_m`` and its end ``goal_m``) and the first trial's landscape."""
     timeseries = pack_cycle_logs(logs, LOG_KEYS)
     longest = max(len(log["train_position_m"]) for log in logs)
     timeseries["train_position_m"] = np.full((len(logs), longest, 2), np.nan)
     for i, log in enumerate(logs):
         timeseries["train_position_m"][i, :len(log["train_position_m"])] = log["train_position_m"]
-    timeseries["route_m"] = route(int(round(config.route_m / SPACING_M)) + 1)[0][None]
+    # The route is the same in every trial; each trial keeps it (a few kB), so that each trial's replay in a
+    # report draws it (a series stored for the first trial only is that trial's alone).
+    points = route(int(round(config.route_m / SPACING_M)) + 1)[0]
+    timeseries["route_m"] = np.repeat(points[None], len(logs), axis=0)
     timeseries.update(pack_world([log["world"] for log in logs]))  # each trial's forest (objects_m) and goal
     if "landscape_novelty" in logs[0]:
         for key in ("landscape_x_m", "landscape_y_m", "landscape_novelty"):

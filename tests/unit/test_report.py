@@ -157,6 +157,9 @@ WORLD_RUNS = {  # scenario -> (tiny settings, the world's traces its replay must
     "cue-integration": (["--set", "timeout_s=1.28", "--set", "trees=6", "--set", "snapshots=4"],
                         {"objects_m", "nest_m", "snapshots_m"}),
     "plume-tracking": (["--set", "timeout_s=0.7", "--set", "warmup_s=0.5"], {"puffs_m", "source", "plume_raster"}),
+    # The route is the same in every trial: every trial's replay draws it, not the first one's only.
+    "route-following": (["--set", "route_m=2", "--set", "duration_s=2", "--set", "n_kc=500",
+                         "--set", "landscape=false"], {"route_m", "objects_m", "goal_m"}),
 }
 
 
