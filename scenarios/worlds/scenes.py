@@ -217,14 +217,17 @@ def footprints_m(objects) -> np.ndarray:
 def world_record(world: World, **points_m) -> dict[str, np.ndarray]:
     """A trial's world as arrays in metres, for its time series (:func:`pack_world`): ``objects_m``
     (K, 3) (:func:`footprints_m`) when it has objects, each polyline trail's centre line (V, 2) as
-    ``trail_m`` (then ``trail_1_m`` ...), and ``points_m`` (name -> (x, y) or (P, 2)) as given."""
+    ``trail_m`` (then ``trail_1_m`` ...) and its width as ``trail_width_m`` (``trail_1_width_m`` ...), and
+    ``points_m`` (name -> (x, y) or (P, 2)) as given."""
     record = {}
     if world.objects:
         record["objects_m"] = footprints_m(world.objects)
     lines = [t for t in world.odour.trails if getattr(t, "vertices_m", None) is not None]  # not image trails
     for i, trail in enumerate(lines):
         line = np.asarray(trail.vertices_m, float)
-        record["trail_m" if i == 0 else f"trail_{i}_m"] = np.vstack([line, line[:1]]) if trail.closed else line
+        name = "trail" if i == 0 else f"trail_{i}"
+        record[f"{name}_m"] = np.vstack([line, line[:1]]) if trail.closed else line
+        record[f"{name}_width_m"] = np.asarray(float(trail.width_m))
     record.update({name: np.asarray(value, float) for name, value in points_m.items()})
     return record
 

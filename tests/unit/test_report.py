@@ -151,9 +151,35 @@ def test_a_report_writes_over_its_own_page_only(folders, tmp_path, capsys):
     assert own.read_text().count("<!DOCTYPE html>") == 1
 
 
+def mitre_gaps_m(outline: np.ndarray, line: np.ndarray) -> np.ndarray:
+    """For a band outline (2 V + 1, 2) about a polyline (V, 2): the distance of each side's vertex k to the
+    lines through the segments that meet at vertex k of the polyline (all half the width for a mitred band)."""
+    count = len(line)
+    sides = (outline[:count], outline[count:2 * count][::-1])
+    gaps = []
+    for k in range(count):
+        for segment in (k - 1, k):
+            if 0 <= segment < count - 1:
+                a, b = line[segment], line[segment + 1]
+                direction = (b - a) / np.hypot(*(b - a))
+                gaps += [abs(direction[0] * (side[k] - a)[1] - direction[1] * (side[k] - a)[0]) for side in sides]
+    return np.array(gaps)
+
+
+def test_band_outline_is_mitred_and_half_a_width_from_its_line():
+    """A right-angle turn: each side's edges half the width from their segments, the outer corner mitred at
+    (w/2)·√2 from the vertex; a repeated vertex is dropped."""
+    line = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [1.0, 1.0]])
+    outline = replay.band_outline(line, 0.2)
+    assert outline.shape == (7, 2)
+    assert mitre_gaps_m(outline, line[:3]) == pytest.approx(np.full(8, 0.1))
+    assert outline[1] == pytest.approx([0.9, 0.1]) and outline[4] == pytest.approx([1.1, -0.1])  # inner, outer
+    assert np.hypot(*(outline[4] - line[1])) == pytest.approx(0.1 * np.sqrt(2.0))
+
+
 WORLD_RUNS = {  # scenario -> (tiny settings, the world's traces its replay must draw)
     "visual-compass": (["--set", "duration_s=1.3"], {"objects_m"}),
-    "odour-trail": (["--set", "timeout_s=1.3"], {"trail_m", "finish_line_m"}),
+    "odour-trail": (["--set", "timeout_s=1.3"], {"trail_m", "trail_m band", "finish_line_m"}),
     "cue-integration": (["--set", "timeout_s=1.28", "--set", "trees=6", "--set", "snapshots=4"],
                         {"objects_m", "nest_m", "snapshots_m"}),
     "plume-tracking": (["--set", "timeout_s=0.7", "--set", "warmup_s=0.5"], {"puffs_m", "source", "plume_raster"}),
@@ -206,6 +232,15 @@ def test_replay_draws_the_recorded_world(scenario, tmp_path):
         turned = (objects[0, 0] * np.cos(yaw) - objects[0, 1] * np.sin(yaw), objects[0, 0] * np.sin(yaw)
                   + objects[0, 1] * np.cos(yaw))
         assert centre == pytest.approx(turned, abs=0.02)
+    if scenario == "odour-trail":  # the trail drawn as wide as it is, about its centre line
+        width_m, centre = recorded["trail_width_m"][0], recorded["trail_m"][0]
+        band = next(t for t in figures[0]["data"] if t["name"] == "trail_m band")
+        outline = np.column_stack([band["x"], band["y"]]).astype(float)
+        assert width_m == pytest.approx(0.27)  # the scenario's default ("normal") trail
+        assert len(outline) == 2 * len(centre) + 1 and (outline[0] == outline[-1]).all()
+        # Each side runs half the width from the centre line's segments (mitred at the trail's turns).
+        gaps = mitre_gaps_m(outline, centre)
+        assert gaps == pytest.approx(np.full(len(gaps), width_m / 2), abs=1e-9)
     if scenario == "plume-tracking":  # the snapshot lies under the path over the arena (8 x 4 m), row 0 at the top
         x_m, y_m = recorded["plume_raster_x_m"][0], recorded["plume_raster_y_m"][0]
         assert x_m.shape == (recorded["plume_raster"].shape[2],) and y_m[0] > y_m[-1]

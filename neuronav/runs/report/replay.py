@@ -20,7 +20,9 @@ recorded (one trial's array)           drawn
                                        (counter-clockwise about the origin, as
                                        ``Backend.set_scene_yaw``)
 (N, 2) ``*route*/*trail*/*path*/       the world: a line (a learnt route, a training walk, an odour
-*line*_m``                             trail's centre line, a finish line)
+*line*_m``                             trail's centre line, a finish line); with a number
+                                       ``NAME_width_m`` beside ``NAME_m``, a band that wide under it
+                                       (an odour trail's width)
 (N, 2) / (2,) other ``*_m``            the world: points (puffs, homes, a source)
 (H, W) with ``P_x_m`` / ``P_y_m``      the world: a map under the path (``landscape_novelty``,
 (or ``NAME_x_m`` / ``NAME_y_m``)       ``plume_raster``): the axes give the x of each column and the
@@ -58,6 +60,8 @@ PATH_COLOUR = "#d62728"
 """The path's colour (the browser test looks for it in a screenshot)."""
 CURSOR_COLOUR = "#111111"
 HEATMAP_CURSOR_COLOUR = "#ff00ff"
+MAX_MITRE = 4.0
+"""A band's corner reaches at most this many half widths from its centre line (:func:`band_outline`)."""
 """The time cursor over a heatmap (magenta: not in the viridis colour map)."""
 WORLD_COLOUR = "#7f7f7f"
 POINT_COLOURS = ("#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#17becf")
@@ -76,6 +80,7 @@ class TrialData:
     times: dict[int, np.ndarray] = field(default_factory=dict)
     panels: list[tuple[str, np.ndarray]] = field(default_factory=list)
     world_lines: list[tuple[str, np.ndarray]] = field(default_factory=list)
+    line_widths_m: dict[str, float] = field(default_factory=dict)  # a world line's width (m), by its name
     world_points: list[tuple[str, np.ndarray]] = field(default_factory=list)
     world_maps: list[tuple[str, np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
     world_objects: list[tuple[str, np.ndarray]] = field(default_factory=list)
@@ -126,6 +131,10 @@ def trial_data(series: dict[str, np.ndarray], trial: int, config: dict | None = 
         if name.startswith("heading") and a is data.heading:
             continue
         _sort(data, name, a, own, lengths)
+    for name, _ in data.world_lines:
+        width = own.get(name[:-2] + "_width_m")
+        if width is not None and np.ndim(width) == 0 and np.isfinite(width) and width > 0:
+            data.line_widths_m[name] = float(width)
     yaw = own.get("scene_yaw_rad")
     if data.world_objects and yaw is not None and yaw.ndim == 1 and len(yaw) > 1:
         data.scene_yaw = yaw
@@ -323,6 +332,11 @@ def _draw_world(fig, go, data: TrialData) -> None:
                                  hoverinfo="skip", marker={"opacity": 0}), row=1, col=1)  # the map in the view
     for name, line in data.world_lines:
         keep = _thin_index(len(line))
+        if name in data.line_widths_m:  # the band the line is the centre of, under it
+            band = band_outline(line[keep], data.line_widths_m[name])
+            fig.add_trace(go.Scatter(x=band[:, 0].tolist(), y=band[:, 1].tolist(), mode="lines", name=f"{name} band",
+                                     fill="toself", fillcolor="rgba(160,110,40,0.25)", hoverinfo="skip",
+                                     line={"color": "rgba(160,110,40,0.5)", "width": 0.5}), row=1, col=1)
         fig.add_trace(go.Scatter(x=line[keep, 0], y=line[keep, 1], mode="lines", name=name,
                                  line={"color": WORLD_COLOUR, "width": 1, "dash": "dot"}), row=1, col=1)
     for name, objects in data.world_objects:  # circles of their radius, one trace
@@ -335,6 +349,27 @@ def _draw_world(fig, go, data: TrialData) -> None:
         fig.add_trace(go.Scatter(x=points[:, 0], y=points[:, 1], mode="markers", name=name,
                                  marker={"color": colour, "size": 12 if few else 5,
                                          "symbol": "star" if few else "circle"}), row=1, col=1)
+
+
+def band_outline(line_m: np.ndarray, width_m: float) -> np.ndarray:
+    """The closed outline (2 V + 1, 2) of a band ``width_m`` wide along a polyline (V, 2): each side is the
+    line moved half the width along its segments' normals, mitred at the vertices (so that every edge of the
+    outline runs half the width from its segment; a mitre at a turn sharper than about 150° is cut at
+    :data:`MAX_MITRE` times the half width). Repeated vertices are dropped."""
+    line = np.asarray(line_m, float)[:, :2]
+    line = line[np.r_[True, np.hypot(*np.diff(line, axis=0).T) > 0]]
+    if len(line) < 2:
+        return line
+    segment = np.diff(line, axis=0)
+    segment /= np.hypot(segment[:, 0], segment[:, 1])[:, None]
+    normal = np.column_stack([-segment[:, 1], segment[:, 0]])  # (V - 1, 2), to the left of each segment
+    mitre = np.vstack([normal[:1], normal[:-1] + normal[1:], normal[-1:]])
+    mitre /= np.maximum(np.hypot(mitre[:, 0], mitre[:, 1]), 1e-12)[:, None]
+    along = np.vstack([normal[:1], normal])  # the normal of the segment each vertex ends (the first: starts)
+    scale = 1.0 / np.maximum((mitre * along).sum(axis=1), 1.0 / MAX_MITRE)
+    offset = mitre * (scale * width_m / 2.0)[:, None]
+    left, right = line + offset, line - offset
+    return np.vstack([left, right[::-1], left[:1]])
 
 
 def _objects_at(data: TrialData, objects: np.ndarray, fraction: float) -> dict:
