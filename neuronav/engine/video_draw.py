@@ -13,7 +13,7 @@ import numpy as np
 
 
 @lru_cache(maxsize=64)
-def _disc_offsets(radius_px: int) -> np.ndarray:
+def disc_offsets(radius_px: int) -> np.ndarray:
     """Integer (row, column) offsets (K, 2) of the pixels within ``radius_px`` + 0.5 of a centre."""
     r = int(radius_px)
     rows, cols = np.mgrid[-r: r + 1, -r: r + 1]
@@ -34,7 +34,7 @@ def disc_mask(shape: tuple[int, int], centres_px, radii_px) -> np.ndarray:
     centres, radii = np.rint(centres[keep]).astype(int), radii[keep]
     for radius in np.unique(radii):
         chosen = centres[radii == radius]
-        offsets = _disc_offsets(int(radius))
+        offsets = disc_offsets(int(radius))
         rows = (chosen[:, None, 1] + offsets[None, :, 0]).ravel()
         cols = (chosen[:, None, 0] + offsets[None, :, 1]).ravel()
         inside = (rows >= 0) & (rows < height) & (cols >= 0) & (cols < width)

@@ -272,7 +272,7 @@ class VideoOverlay:
             image = np.array(frame, dtype=np.uint8, copy=True)
             if world is not None:
                 self._draw_world(image, camera, world)
-            self._draw_insets(image, panels)
+            draw_insets(image, panels)
             return image
 
         return draw, again
@@ -407,19 +407,21 @@ class VideoOverlay:
                 put_text(image, name, int(np.clip(label[1] - text_h / 2, 0, height - text_h)),
                          int(np.clip(label[0] - text_w / 2, 0, width - text_w)), rgb)
 
-    # insets
-    def _draw_insets(self, image: np.ndarray, panels: list) -> None:
-        height, width = image.shape[:2]
-        bottom, left, column_px = height - INSET_GAP_PX, INSET_GAP_PX, 0
-        for label, panel in panels:
-            h, w = panel.shape[0] + 18, panel.shape[1] + 8
-            if bottom - h < 0:  # no room: the next column
-                bottom, left, column_px = height - INSET_GAP_PX, left + column_px + INSET_GAP_PX, 0
-            column_px = max(column_px, w)
-            top = bottom - h
-            if left + w > width:
-                break
-            blend_box(image, slice(top, bottom), slice(left, left + w), PANEL_RGB, PANEL_ALPHA)
-            put_text(image, label, top + 1, left + 4)
-            image[top + 16: top + 16 + panel.shape[0], left + 4: left + 4 + panel.shape[1]] = panel
-            bottom = top - INSET_GAP_PX
+
+def draw_insets(image: np.ndarray, panels: list) -> None:
+    """Draw ``panels`` ((label, (h, w, 3) uint8) pairs) in ``image`` in place: each on a dark box with its label,
+    stacked up from the bottom-left corner, in a new column where one is full (those that fit)."""
+    height, width = image.shape[:2]
+    bottom, left, column_px = height - INSET_GAP_PX, INSET_GAP_PX, 0
+    for label, panel in panels:
+        h, w = panel.shape[0] + 18, panel.shape[1] + 8
+        if bottom - h < 0:  # no room: the next column
+            bottom, left, column_px = height - INSET_GAP_PX, left + column_px + INSET_GAP_PX, 0
+        column_px = max(column_px, w)
+        top = bottom - h
+        if left + w > width:
+            break
+        blend_box(image, slice(top, bottom), slice(left, left + w), PANEL_RGB, PANEL_ALPHA)
+        put_text(image, label, top + 1, left + 4)
+        image[top + 16: top + 16 + panel.shape[0], left + 4: left + 4 + panel.shape[1]] = panel
+        bottom = top - INSET_GAP_PX

@@ -102,7 +102,10 @@ class TopFraming:
         points = points[np.isfinite(points).all(axis=1)]
         if not len(points):
             return False
-        if self._low is not None and (points >= self._low).all() and (points <= self._high).all():
+        # Within the margin's inner half of the kept bounds: no change. Further out, the bounds grow to hold the
+        # points with the whole margin (an agent never reaches the frame's edge, and the view grows in steps).
+        inner = TOP_MARGIN_M / 2.0
+        if self._low is not None and (points >= self._low + inner).all() and (points <= self._high - inner).all():
             return False
         self._grow(points)
         return True

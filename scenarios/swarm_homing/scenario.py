@@ -15,7 +15,8 @@ embodied protocol (:func:`~neuronav.scenarios.path_integration.embodied.homing_n
 
 Rows are ants: trial i (seed s = seed + i) is ant ``s mod ants`` of swarm ``s // ants``; a swarm follows
 from its index and the settings alone, so a row re-run alone, in any chunk or batch, is the same.
-``swarm_position_m`` holds the first trial's whole swarm, drawn by ``swarm_trajectories.png``.
+``swarm_position_m`` holds the first trial's whole swarm, drawn by ``swarm_trajectories.png``; ``--video`` films
+that swarm from above on every backend (:mod:`~neuronav.scenarios.swarm_homing.film`).
 
 Metrics per ant: ``success`` (home after the outbound phase), ``homing_time_s`` (NaN if never),
 ``closest_distance_m``, ``home_distance_m`` (at the turn back), ``straightness``, ``decode_error_deg`` (CPU4's
@@ -65,6 +66,8 @@ SWARM_BYTES_PER_ANT = 8192
 TRIAL_BYTES_PER_CYCLE = 32
 TRIAL_BYTES = 2048
 GOLDEN_ANGLE_RAD = np.pi * (3.0 - np.sqrt(5.0))
+SWARM_WORLD = World(ground=Ground(size_m=80.0))  # flat: the ground plane collides everywhere
+VIDEO_EVERY = 8  # --video: a frame every this many control steps (as the other scenarios' videos)
 
 
 @dataclass
@@ -114,7 +117,7 @@ class SwarmBodies:
 
     def __init__(self, backend: str, config: SwarmHomingConfig) -> None:
         self.backend, self.count = backend, config.ants
-        world = World(ground=Ground(size_m=80.0))  # flat: the ground plane collides everywhere
+        world = SWARM_WORLD
         if backend == "kinematic":  # point agents: the batched single backend carries any number
             self.engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
             self.engine.load(world, [PointAgents(count=self.count, mode="unicycle")])
@@ -149,8 +152,23 @@ class SwarmBodies:
         return np.zeros(self.count, bool) if self.gaits is None else self.engine.ant_contacts()
 
 
-def run_swarm(config: SwarmHomingConfig, backend: str, swarm: int) -> dict:
-    """Simulate swarm number ``swarm``: every ant's log and metrics (see the module docstring)."""
+def run_swarm(config: SwarmHomingConfig, backend: str, swarm: int, video_path: Path | None = None) -> dict:
+    """Simulate swarm number ``swarm``: every ant's log and metrics (see the module docstring); with
+    ``video_path``, filmed from above into that MP4 (:class:`~neuronav.scenarios.swarm_homing.film.SwarmFilm`)."""
+    film = None
+    try:
+        if video_path is not None:
+            from neuronav.scenarios.swarm_homing.film import SwarmFilm  # lazily: only videos need it
+
+            film = SwarmFilm(video_path, SWARM_WORLD, home_positions(config.ants, config.spacing_m),
+                             config.nest_radius_m, CONTROL_S, VIDEO_EVERY)
+        return _run_swarm(config, backend, swarm, film)
+    finally:
+        if film is not None:
+            film.close()
+
+
+def _run_swarm(config: SwarmHomingConfig, backend: str, swarm: int, film) -> dict:
     n = config.ants
     seeds = [swarm * n + j for j in range(n)]
     homes = home_positions(n, config.spacing_m)
@@ -208,6 +226,10 @@ def run_swarm(config: SwarmHomingConfig, backend: str, swarm: int) -> dict:
                 position = bodies.engine.read(("position",))["position"]
                 _arrivals(position, homes, home_at, closest, time_s + (step + 1) * CONTROL_S,
                           config.nest_radius_m)
+            if film is not None and (cycle * controls_per_cycle + step) % film.every == 0:
+                pose = bodies.engine.read(("position", "heading"))
+                film.film(pose["position"], pose["heading"], home_at, turnback_memory is not None,
+                          time_s + (step + 1) * CONTROL_S, cx.memory("CPU4")[0])
     else:
         cycle = cycles
     end_s = cycle * CYCLE_S
@@ -278,6 +300,7 @@ class SwarmHoming(Scenario):
     backends = ("kinematic", "mujoco", "pybullet")
     default_backend = "kinematic"
     timing_metrics = ("ant_seconds_per_wall_s",)
+    records_video = True  # the first trial's swarm from above (film.py), on every backend
     # An ant that never gets home has no homing time; one that did not move on its way home no straightness.
     optional_metrics = ("homing_time_s", "straightness")
 
@@ -331,8 +354,8 @@ class SwarmHoming(Scenario):
         rows, paths, homes = [], [], []
         for s in range(seed, seed + trials):
             swarm, ant = divmod(s, n)
-            if swarm not in logs:
-                logs[swarm] = run_swarm(config, backend, swarm)
+            if swarm not in logs:  # the first trial's swarm filmed (a run's first chunk gets the video path)
+                logs[swarm] = run_swarm(config, backend, swarm, video_path if s == seed else None)
             log = logs[swarm]
             rows.append(ant_metrics(log, ant, swarm, config))
             paths.append(log["positions"][:, ant])

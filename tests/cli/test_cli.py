@@ -67,7 +67,6 @@ def test_a_trial_rerun_alone_gives_the_same_numbers(tmp_path, dtype, tolerance):
     (["run", "path-integration", "--set", "noise"], "--set expects key=value"),
     (["run", "path-integration", "--trials", "0"], "trials must be a positive integer"),
     (["run", "path-integration", "--trials", "many"], "argument --trials: invalid int value"),
-    (["run", "swarm-homing", "--video"], "scenario 'swarm-homing' does not record video"),
     (["run", "path-integration", "--video"], "--video films the i2bot protocol"),
     (["sweep", "path-integration", "--grid", "noise"], "--grid expects key=v1,v2"),
     (["sweep", "path-integration", "--grid", "noise=0.1", "--set", "noise=0.2"], "key 'noise' is in both --grid"),
@@ -85,6 +84,16 @@ def test_bad_input_is_one_line_and_exit_2(args, message):
     assert len(lines) == 1, result.stderr
     assert message in lines[0]
     assert "Traceback" not in result.stderr
+
+
+def test_video_of_a_scenario_that_films_nothing_is_refused_before_any_trial(tmp_path, capsys, monkeypatch):
+    """Every registered scenario films (records_video); one that did not is refused in one line, exit 2."""
+    from neuronav.scenarios.swarm_homing.scenario import SwarmHoming
+
+    monkeypatch.setattr(SwarmHoming, "records_video", False)
+    assert main(["run", "swarm-homing", "--video", "--out", str(tmp_path / "run")]) == 2
+    assert "scenario 'swarm-homing' does not record video" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()
 
 
 def test_compare_writes_a_side_by_side_table(tmp_path):

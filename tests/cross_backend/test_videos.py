@@ -63,3 +63,15 @@ def test_embodied_homing_video_plays_in_real_time(tmp_path):
     # A 1 cm nest is rarely reached, but a trial that does not reach it still ran: exit 0 (1 is a trial that raised).
     assert main(command) == 0
     check_video(out, 2.56, 15.625)
+
+
+@pytest.mark.parametrize("backend", ["kinematic", "mujoco", "pybullet"])
+def test_swarm_video_plays_in_real_time_on_every_backend(tmp_path, backend):
+    """The swarm's video (drawn from above: the swarm backends have no cameras): 6.4 s = 800 control steps, a frame
+    every 8 of them: 100 frames at 15.625 fps, the ants moving."""
+    if backend != "kinematic":
+        require(backend)
+    out = tmp_path / "run"
+    assert main(["run", "swarm-homing", "--backend", backend, "--trials", "3", "--set", "ants=3", "--set",
+                 "outbound_s=3.2", "--set", "homing_timeout_s=3.2", "--video", "--no-figures", "--out", str(out)]) == 0
+    check_video(out, 6.4, 15.625)

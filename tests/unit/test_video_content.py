@@ -157,3 +157,42 @@ def test_a_boxs_blend_is_the_blend_of_the_same_rectangle_as_a_mask():
     blend_box(image, slice(7, 31), slice(12, 50), (25, 25, 25), 0.75)
     np.testing.assert_array_equal(image, expected)
     assert (expected[7:31, 12:50] < 90).all() and not (expected[:7] < 90).all()  # the box darkened, not the rest
+
+
+# -- the swarm --------------------------------------------------------------------------------------------------
+def test_swarm_film_draws_each_ant_where_it_is_in_its_phase_colour_and_each_home(tmp_path):
+    from neuronav.scenarios.swarm_homing import film as swarm_film
+    from neuronav.scenarios.swarm_homing.scenario import SWARM_WORLD
+
+    homes = np.array([[-2.0, 0.0], [2.0, 0.0]])
+    path = tmp_path / "swarm.mp4"
+    recorder = swarm_film.SwarmFilm(path, SWARM_WORLD, homes, nest_radius_m=0.5, control_dt_s=0.008, every=8)
+    views, ants = [], np.array([[-2.0, 1.5], [2.5, -1.0]])
+    phases = [(False, [np.nan, np.nan]), (True, [np.nan, np.nan]), (True, [np.nan, 3.0])]  # foraging, homing, one home
+    for k, (homing, home_at) in enumerate(phases):
+        moved = ants + [0.1 * k, 0.0]
+        recorder.film(moved, np.zeros(2), np.array(home_at), homing, time_s=k, cpu4=np.arange(16.0))
+        views.append((recorder.camera.view, moved))
+    recorder.close()
+    assert path.exists() and not path.with_suffix(".partial.mp4").exists()
+    with imageio.get_reader(path) as reader:
+        frames = [np.asarray(frame).astype(int) for frame in reader]
+    assert len(frames) == 3
+    expected = [(swarm_film.FORAGING_RGB,) * 2, (swarm_film.HOMING_RGB,) * 2,
+                (swarm_film.HOMING_RGB, swarm_film.HOME_RGB)]
+    for frame, (view, moved), colours in zip(frames, views, expected):
+        for (column, row), rgb in zip(np.rint(view.project(moved)[0]).astype(int), colours):
+            centre = frame[row - 1: row + 2, column - 1: column + 2].reshape(-1, 3)
+            assert np.abs(centre - np.asarray(rgb)).max(axis=1).min() <= 40, (rgb, centre)
+        # Each home's ring: pixels of the home colour at the nest radius from it, none at its centre.
+        for column, row in np.rint(view.project(homes)[0]).astype(int):
+            radius_px = int(round(0.5 / view.m_per_px))
+            ring = frame[row, column + radius_px - 3: column + radius_px + 2]
+            assert np.abs(ring - np.asarray(swarm_film.HOME_RGB)).max(axis=1).min() <= 40
+            assert np.abs(frame[row, column] - np.asarray(swarm_film.HOME_RGB)).max() > 60
+    # The path walked between the frames: path colour between the first and the last position of ant 0.
+    view = views[-1][0]
+    (c0, r0), (c1, r1) = np.rint(view.project([views[0][1][0], views[-1][1][0]])[0]).astype(int)
+    assert c1 > c0 + 3
+    walked = frames[-1][r0, c0 - 3: c0 + 2]
+    assert (np.abs(walked - frames[-1][r0 + 40, c0 - 3: c0 + 2]).sum(axis=1) > 30).any()  # not bare ground
