@@ -12,8 +12,9 @@ multiple of ``every``), the first taken after the first control step.
 from __future__ import annotations
 
 import queue
+import subprocess
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import Future
 from functools import partial
 from pathlib import Path
@@ -22,7 +23,7 @@ import numpy as np
 
 from neuronav.engine.articulated import follow_axes  # noqa: F401 - the follow camera's axes, re-exported
 from neuronav.engine.loop import AgentLoop, Hook
-from neuronav.errors import ConfigError
+from neuronav.errors import ConfigError, SimulationError
 
 # Frames per control step: every 4th 8 ms step, 31.25 frames per second of simulated time.
 DEFAULT_EVERY = 4
@@ -204,3 +205,37 @@ def write_video(path: Path, frames: list[np.ndarray], fps: float) -> None:
         for frame in frames:
             writer.append_data(frame)
     temporary.replace(path)
+
+
+def join_videos(parts: Sequence[Path], path: Path) -> None:
+    """The MP4s ``parts`` played one after the other in the MP4 ``path``, without encoding them again (ffmpeg's
+    concat demuxer: the parts must share their size, frame rate and encoding, as this module's writers' do).
+    Parts that were not written are skipped; the parts are removed.
+
+    Raises
+    ------
+    SimulationError
+        ffmpeg could not join them (its message).
+    """
+    import imageio_ffmpeg
+
+    path = Path(path)
+    written = [Path(part) for part in parts if Path(part).exists()]
+    listing, temporary = path.with_suffix(".parts.txt"), path.with_suffix(".partial.mp4")
+    try:
+        if len(written) == 1:
+            written[0].replace(path)
+        elif written:
+            # The concat demuxer's list: one quoted path a line (a quote inside a path closed, escaped, reopened).
+            listing.write_text("".join("file '{}'\n".format(str(part.resolve()).replace("'", "'\\''"))
+                                       for part in written))
+            command = [imageio_ffmpeg.get_ffmpeg_exe(), "-y", "-loglevel", "error", "-f", "concat", "-safe", "0",
+                       "-i", str(listing), "-c", "copy", str(temporary)]
+            done = subprocess.run(command, capture_output=True, text=True, check=False)
+            if done.returncode != 0:
+                said = done.stderr.strip().splitlines()[-1] if done.stderr.strip() else f"exit {done.returncode}"
+                raise SimulationError(f"video: ffmpeg could not join {len(written)} parts into {path.name}: {said}")
+            temporary.replace(path)
+    finally:
+        for leftover in (listing, temporary, *written):
+            leftover.unlink(missing_ok=True)

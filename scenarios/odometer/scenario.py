@@ -46,6 +46,7 @@ from neuronav.bodies.gaits import make_gait
 from neuronav.bodies.step_odometer import StepOdometer, UnicycleStrideOdometer
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
+from neuronav.engine.video import join_videos
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
@@ -254,12 +255,25 @@ def odometer_trial(config: OdometerConfig, backend_name: str, seed: int, video_p
                        config.stride_noise_fraction if is_on(config) else 0.0)
     believed = believed_odometer(backend_name)
     nest_m = np.array([across_m[0], 0.0])
+    # Filmed (trial 0): each leg in a part of its own (each leg is its own engine and loop), joined after.
+    parts = [None, None] if video_path is None else [Path(video_path).with_suffix(f".{leg}.partial.mp4")
+                                                       for leg in ("outbound", "homeward")]
+    try:
+        row, log = _trip(config, backend_name, seed, legs, nest_m, across_m, heading_jitter, believed, motor, parts)
+    finally:
+        if video_path is not None:
+            join_videos(parts, video_path)
+    return row, log
 
+
+def _trip(config: OdometerConfig, backend_name: str, seed: int, legs: str, nest_m: np.ndarray, across_m,
+          heading_jitter, believed, motor: MotorNoise, parts: list) -> tuple[dict, dict]:
+    """:func:`odometer_trial`'s two legs, each filmed into its part of ``parts`` (None: not filmed)."""
     def at_feeder(lp: AgentLoop, _odometer) -> bool:
         return bool(lp.backend.read(("position",))["position"][0, 1] >= config.channel_m)
 
     out = walk_leg(config, backend_name, "normal", seed, nest_m, NEST_HEADING_RAD + heading_jitter[0],
-                   NEST_HEADING_RAD, believed, motor, at_feeder, video_path)
+                   NEST_HEADING_RAD, believed, motor, at_feeder, parts[0])
     stored_m = out["odometer"].distance_m
     release_m = np.array([out["final_m"][0] + across_m[1], out["final_m"][1]])
 
@@ -267,7 +281,7 @@ def odometer_trial(config: OdometerConfig, backend_name: str, seed: int, video_p
         return odometer.distance_m >= stored_m
 
     home = walk_leg(config, backend_name, legs, seed, release_m, HOME_HEADING_RAD + heading_jitter[1],
-                    HOME_HEADING_RAD, believed, motor, searching)
+                    HOME_HEADING_RAD, believed, motor, searching, parts[1])
     # Where the odometer reached the stored distance (within the last 8 ms control step): the search start.
     search_m = home["odometer"].crossing_m(stored_m) if home["stopped"] else home["final_m"]
     walked_home_m = float(home["odometer"].start_position_m[1] - search_m[1])

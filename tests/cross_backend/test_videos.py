@@ -75,3 +75,20 @@ def test_swarm_video_plays_in_real_time_on_every_backend(tmp_path, backend):
     assert main(["run", "swarm-homing", "--backend", backend, "--trials", "3", "--set", "ants=3", "--set",
                  "outbound_s=3.2", "--set", "homing_timeout_s=3.2", "--video", "--no-figures", "--out", str(out)]) == 0
     check_video(out, 6.4, 15.625)
+
+
+@pytest.mark.parametrize("backend", ["kinematic", "mujoco"])
+def test_odometer_video_films_both_legs(tmp_path, backend):
+    """The odometer's trial is two legs on two engines (normal legs out, manipulated legs home): its video holds both,
+    one after the other (as long as the trial, within a frame per leg)."""
+    import csv
+
+    if backend != "kinematic":
+        require(backend)
+    out = tmp_path / "run"
+    assert main(["run", "odometer", "--backend", backend, "--trials", "1", "--set", "channel_m=1",
+                 "--set", "legs=stilts", "--video", "--no-figures", "--out", str(out)]) == 0
+    fps, frames = read_video(out)
+    trial_s = float(next(csv.DictReader((out / "trials.csv").open()))["trial_time_s"])
+    assert abs(len(frames) / fps - trial_s) <= 2.0 / fps, (len(frames), fps, trial_s)
+    assert sorted(p.name for p in out.glob("*.mp4")) == ["trial0.mp4"]  # the legs' parts joined and gone

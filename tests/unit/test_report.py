@@ -310,3 +310,11 @@ def test_replay_breaks_angle_traces_at_wraps_and_tells_named_points_apart():
     stars = {trace["name"]: trace["marker"]["color"] for trace in fig["data"] if trace.get("name") in
              ("nest_m", "turnback_m")}
     assert len(stars) == 2 and stars["nest_m"] != stars["turnback_m"]
+
+
+def test_report_leaves_out_videos_still_being_written(tmp_path):
+    from neuronav.runs.report.loader import finished_videos
+
+    for name in ("trial0.mp4", "trial0.outbound.partial.mp4", "trial0.partial.mp4"):
+        (tmp_path / name).write_bytes(b"")
+    assert [path.name for path in finished_videos(tmp_path)] == ["trial0.mp4"]

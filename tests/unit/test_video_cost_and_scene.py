@@ -367,3 +367,23 @@ def test_a_forked_child_draws_the_follow_view_on_a_gl_thread_of_its_own():
     except subprocess.TimeoutExpired:
         pytest.fail("a child forked after the follow view was drawn hung")
     assert "child same" in done.stdout and "parent same" in done.stdout, done.stdout + done.stderr
+
+
+def test_join_videos_plays_the_parts_one_after_the_other_and_removes_them(tmp_path):
+    from neuronav.engine.video import FrameWriter, join_videos
+
+    imageio = pytest.importorskip("imageio.v2")
+    parts = [tmp_path / "a.partial.mp4", tmp_path / "missing.partial.mp4", tmp_path / "b.partial.mp4"]
+    for part, (count, level) in zip(parts[::2], ((3, 40), (5, 200))):
+        writer = FrameWriter(part, 10.0)
+        for _ in range(count):
+            writer.append(np.full((48, 64, 3), level, np.uint8))
+        writer.close()
+    joined = tmp_path / "trial0.mp4"
+    join_videos(parts, joined)
+    with imageio.get_reader(joined) as reader:
+        levels = [int(np.asarray(frame).mean()) for frame in reader]
+    assert len(levels) == 8 and max(levels[:3]) < 60 and min(levels[3:]) > 180  # a's 3 frames, then b's 5
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["trial0.mp4"]
+    join_videos([tmp_path / "none.mp4"], tmp_path / "nothing.mp4")  # nothing written: nothing made
+    assert not (tmp_path / "nothing.mp4").exists()

@@ -102,7 +102,7 @@ def load(path: str | Path) -> RunFolder:
 def _run(folder: Path, summary: dict, label: str) -> RunFolder:
     return RunFolder(path=folder, kind="run", summary=summary, settings=_json(folder / "settings.json"),
                      rows=_csv(folder / "trials.csv"), figures=sorted(folder.glob("*.png")),
-                     videos=sorted(folder.glob("*.mp4")), label=label)
+                     videos=finished_videos(folder), label=label)
 
 
 def _compare(folder: Path) -> RunFolder:
@@ -116,7 +116,7 @@ def _compare(folder: Path) -> RunFolder:
             children.append(_run(folder / backend, summary, label=str(backend)))
     return RunFolder(path=folder, kind="compare", summary=document, settings=_json(folder / "settings.json"),
                      rows=_csv(folder / "compare.csv"), figures=sorted(folder.glob("*.png")),
-                     videos=sorted(folder.glob("*.mp4")), children=children, label=folder.name)
+                     videos=finished_videos(folder), children=children, label=folder.name)
 
 
 def _sweep(folder: Path, summary: dict) -> RunFolder:
@@ -128,7 +128,7 @@ def _sweep(folder: Path, summary: dict) -> RunFolder:
             children.append(_run(folder / name, child, label=name))
     return RunFolder(path=folder, kind="sweep", summary=summary, settings=_json(folder / "settings.json"),
                      rows=_csv(folder / "trials.csv"), figures=sorted(folder.glob("*.png")),
-                     videos=sorted(folder.glob("*.mp4")), children=children, label=folder.name)
+                     videos=finished_videos(folder), children=children, label=folder.name)
 
 
 def _json(path: Path) -> dict:
@@ -147,3 +147,9 @@ def _csv(path: Path) -> list[dict]:
         return []
     with open(path, newline="") as handle:
         return list(csv.DictReader(handle))
+
+
+def finished_videos(folder: Path) -> list[Path]:
+    """The MP4s in ``folder``, sorted, but for those still being written (``*.partial.mp4``: a run that was
+    stopped while filming leaves one)."""
+    return sorted(path for path in folder.glob("*.mp4") if not path.name.endswith(".partial.mp4"))
