@@ -15,8 +15,7 @@ embodied protocol (:func:`~neuronav.scenarios.path_integration.embodied.homing_n
 
 Rows are ants: trial i (seed s = seed + i) is ant ``s mod ants`` of swarm ``s // ants``; a swarm follows
 from its index and the settings alone, so a row re-run alone, in any chunk or batch, is the same.
-``swarm_position_m`` holds the first trial's whole swarm, drawn by ``swarm_trajectories.png``; ``--video`` films
-that swarm from above on every backend (:mod:`~neuronav.scenarios.swarm_homing.film`).
+``swarm_position_m`` holds the first trial's whole swarm (``swarm_trajectories.png``, ``--video``: ``film.py``).
 
 Metrics per ant: ``success`` (home after the outbound phase), ``homing_time_s`` (NaN if never),
 ``closest_distance_m``, ``home_distance_m`` (at the turn back), ``straightness``, ``decode_error_deg`` (CPU4's
