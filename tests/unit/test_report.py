@@ -249,6 +249,21 @@ def test_replay_draws_the_recorded_world(scenario, tmp_path):
         assert image["x"] == pytest.approx(0.0) and image["y"] == pytest.approx(2.0)
 
 
+def test_replay_draws_every_agents_path_and_moves_their_cursors():
+    """A swarm's (A, T, 2) positions: one line per agent (None between them), cursors at each agent's place."""
+    t = np.linspace(0.0, 1.0, 50)
+    swarm = np.stack([np.c_[t + k, 2.0 * t] for k in range(3)])  # (3 agents, 50, 2)
+    series = {"position_m": np.c_[t, t][None], "swarm_position_m": swarm[None]}
+    fig = replay.figure(replay.trial_data(series, 0))
+    paths = next(trace for trace in fig["data"] if trace["name"] == "agents' paths")
+    assert paths["x"].count(None) == 3
+    first = paths["x"][:paths["x"].index(None)]
+    assert first == pytest.approx(t.tolist())
+    index = next(i for i, trace in enumerate(fig["data"]) if trace["name"] == "agents")
+    last = fig["frames"][-1]
+    assert last["data"][last["traces"].index(index)]["x"] == pytest.approx([1.0, 2.0, 3.0])
+
+
 def test_replay_draws_a_map_with_decreasing_y_row_0_at_the_top():
     """A map whose y axis decreases (a plume raster: row 0 at the largest y) is drawn with row 0 at the top."""
     import io

@@ -52,6 +52,8 @@ MAX_POINTS = 1500
 """Samples per drawn line or heatmap column at most."""
 MAX_AGENTS = 100
 """Agents drawn of a many-agent run at most."""
+MAX_AGENT_POINTS = 200
+"""Points per drawn agent's path at most."""
 MAX_IMAGES = 4
 """Image panels per replay at most."""
 MAX_TIME_PANELS = 8
@@ -223,6 +225,8 @@ def figure(data: TrialData, title: str = "") -> dict:
                   row=1, col=1)
     cursors.append((len(fig.data) - 1, lambda f: _pose(data, f, tick)))
     if data.agents is not None:
+        fig.add_trace(go.Scatter(mode="lines", name="agents' paths", hoverinfo="skip", **_agent_paths(data.agents),
+                                 line={"color": "rgba(90,90,90,0.35)", "width": 1}), row=1, col=1)
         fig.add_trace(go.Scatter(mode="markers", name="agents", showlegend=False,
                                  marker={"color": CURSOR_COLOUR, "size": 4}, **_agents(data.agents, 0.0)), row=1, col=1)
         cursors.append((len(fig.data) - 1, lambda f: _agents(data.agents, f)))
@@ -440,6 +444,17 @@ def _pose(data: TrialData, fraction: float, tick: float) -> dict:
         # Clockwise from +y, as the backends' heading sensor (neuronav.engine.backend) and every scenario log it.
         return {"x": [float(x), float(x + tick * np.sin(angle))], "y": [float(y), float(y + tick * np.cos(angle))]}
     return {"x": [float(x), float(x)], "y": [float(y), float(y)]}
+
+
+def _agent_paths(agents: np.ndarray) -> dict:
+    """Every agent's path (A, T, 2) as one line trace's ``x``/``y``, None between agents, each thinned to at most
+    :data:`MAX_AGENT_POINTS` points."""
+    keep = np.unique(np.linspace(0, agents.shape[1] - 1, min(agents.shape[1], MAX_AGENT_POINTS)).round().astype(int))
+    x, y = [], []
+    for path in agents[:, keep].astype(float):
+        x += [*path[:, 0].tolist(), None]
+        y += [*path[:, 1].tolist(), None]
+    return {"x": x, "y": y}
 
 
 def _agents(agents: np.ndarray, fraction: float) -> dict:
