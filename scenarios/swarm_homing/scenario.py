@@ -61,7 +61,8 @@ MAX_PHYSICS_ANTS = 31  # neuronav.backends.mujoco.swarm.MAX_ANTS: one contact bi
 # 11, so 87 B per ant and cycle beside the 8 KB per ant. Rounded up:
 SWARM_BYTES_PER_ANT_CYCLE = 96
 SWARM_BYTES_PER_ANT = 8192
-# Per trial (row): its own trajectory, float64 and float32 (24 B per cycle, rounded up), and its row.
+# Per trial (row): its own trajectory, float64 and float32, and its clock, float32 (28 B per cycle, rounded up),
+# and its row.
 TRIAL_BYTES_PER_CYCLE = 32
 TRIAL_BYTES = 2048
 GOLDEN_ANGLE_RAD = np.pi * (3.0 - np.sqrt(5.0))
@@ -360,8 +361,11 @@ class SwarmHoming(Scenario):
             paths.append(log["positions"][:, ant])
             homes.append(log["homes"][ant])
         first = logs[seed // n]
+        positions = np.array(paths, np.float32)  # (trials, cycles + 1, 2), NaN after the swarm stopped
+        clock_s = np.arange(positions.shape[1], dtype=np.float32) * np.float32(CYCLE_S)
         timeseries = {
-            "position_m": np.array(paths, np.float32),  # (trials, cycles + 1, 2), NaN after the swarm stopped
+            "position_m": positions,
+            "time_s": np.where(np.isfinite(positions[..., 0]), clock_s, np.float32(np.nan)),  # each sample's time
             "home_m": np.array(homes),
             # The first trial's whole swarm, with a leading axis of 1 (not per trial): (1, ants, cycles + 1, 2).
             "swarm_position_m": first["positions"].transpose(1, 0, 2)[None].astype(np.float32),

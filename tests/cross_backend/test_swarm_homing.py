@@ -57,6 +57,11 @@ def test_ants_home_from_their_foraging_walks(backend):
     straightness = np.array([row["straightness"] for row in rows])
     assert ((straightness > 0) & (straightness <= 1))[np.isfinite(straightness)].all()
     assert result.timeseries["swarm_position_m"].shape[:2] == (1, 3)
+    # Each row's clock: one gait cycle a sample, while its swarm ran (as its path).
+    clock, path = result.timeseries["time_s"], result.timeseries["position_m"]
+    assert clock.shape == path.shape[:2]
+    assert (np.isfinite(clock) == np.isfinite(path[..., 0])).all()
+    assert np.diff(clock[0][np.isfinite(clock[0])]) == pytest.approx(0.64, abs=1e-5)  # float32, as the paths
 
 
 def test_a_short_pybullet_swarm_runs_and_reports_every_ant():
