@@ -49,7 +49,7 @@ from neuronav.scenarios.trial_loop import pack_cycle_logs, run_loop, trials_one_
 from neuronav.scenarios.variability import is_on, jitter_start, trial_generators, variability_field
 from neuronav.scenarios.visual_setup import CONTROL_S, CYCLE_S, make_engine
 from neuronav.scenarios.worlds.scenes import forest, landmark, pack_world, vision_appearance, world_record
-from neuronav.senses.compound_eye_vision import beacon_eye_image
+from neuronav.senses.compound_eye_vision import CAMERA_EYE_AZIMUTH_DEG, CAMERA_EYE_FOV_RAD, beacon_eye_image
 from neuronav.spec.world import Ground, World
 
 EYE_MODES = ("left", "right", "both")
@@ -68,6 +68,9 @@ class VisualBeaconConfig:
                      choices=("cycle", *EYE_MODES))
     eyes: str = field("camera", "what the eyes are: camera (the binocular 74 x 19 cameras) or compound (the "
                       "compound eyes' green channel on the cameras' grids)", choices=EYE_KINDS)
+    eye_midline_deg: float = field(90.0, "each eye sees at most this far across the midline (deg): cells beyond are "
+                                   "blank (bright); 90 = all (the cameras reach 27 deg, the compound eyes 10)",
+                                   min=0.0, max=90.0)
     landmark_distance_m: float = field(25.0, "the landmark's distance from the start (m)", min=5.0, max=100.0)
     trees: int = field(40, "trees around the scene (seeded by the trial)", min=0, max=500)
     dark_threshold: float = field(0.08, "grey level (0–1) at or below which a pixel is the landmark "
@@ -130,9 +133,15 @@ class BeaconBrain:
         add = self.eye_noise if noise else (lambda image: image)
         if not self.adapters:
             rendered = backend.read(eyes)
-            return {name: add(rendered[name]) for name in eyes}
-        sensed = backend.read(tuple(self.adapters[name][0] for name in eyes))
-        return {name: self.adapters[name][1](add(sensed[self.adapters[name][0]])) for name in eyes}
+            images = {name: add(rendered[name]) for name in eyes}
+        else:
+            sensed = backend.read(tuple(self.adapters[name][0] for name in eyes))
+            images = {name: self.adapters[name][1](add(sensed[self.adapters[name][0]])) for name in eyes}
+        if self.config.eye_midline_deg < 90.0:  # a narrower binocular field: the far side of the midline blank
+            for name, image in images.items():
+                blank = across_midline(name[-1], image.shape[-1], self.config.eye_midline_deg, not self.adapters)
+                images[name] = np.where(blank, 1.0, image)
+        return images
 
     def __call__(self, loop: AgentLoop) -> tuple[float, float]:
         eyes = EYES[self.mode]
@@ -150,6 +159,19 @@ class BeaconBrain:
                            ("stride_rad", command[1])):
             self.log[key].append(np.array(value, float))
         return self.motor_noise(*command)
+
+
+def across_midline(side: str, width_px: int, limit_deg: float, planar: bool) -> np.ndarray:
+    """Bool (width_px,): the columns of the ``side`` eye's image (``L``/``R``: 2 rad wide, centred 30° to its
+    side) that look more than ``limit_deg`` across the midline, to the other side; ``planar``: the camera eye's
+    pinhole image (columns even in the tangent of the angle), else the compound eye's layout on its grid
+    (even in azimuth, :func:`neuronav.senses.compound_eye_vision.eye_grid`)."""
+    u = 2.0 * (np.arange(width_px) + 0.5) / width_px - 1.0  # -1 .. 1, left to right
+    half = CAMERA_EYE_FOV_RAD[0] / 2.0
+    offset = np.arctan(np.tan(half) * u) if planar else half * u  # clockwise from the eye's axis
+    azimuth = np.radians(CAMERA_EYE_AZIMUTH_DEG) * (-1.0 if side == "L" else 1.0) + offset  # the left negative
+    across = azimuth if side == "L" else -azimuth  # how far each column looks to the other side
+    return across > np.radians(limit_deg)
 
 
 def beacon_video(config: VisualBeaconConfig, brain: BeaconBrain, start_m, goal_m) -> VideoContent:
