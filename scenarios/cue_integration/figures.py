@@ -63,7 +63,7 @@ def initial_heading_figure(result, config):
     mode's reliability-weighted prediction."""
     fig, ax = new_figure((7, 5))
     modes = cue_modes_of(result)
-    all_conflicts = np.array(sorted({t["conflict_deg"] for t in result.trials}), float)
+    all_conflicts = np.array(sorted({t["conflict_deg"] for t in result.trials if "conflict_deg" in t}), float)
     spacing = float(np.min(np.diff(all_conflicts))) if all_conflicts.size > 1 else 30.0
     band = 0.5 * spacing / max(len(modes), 1)  # each mode's share of the space between two conflicts
     x = all_conflicts
@@ -101,7 +101,7 @@ def paths_figure(result, config):
     from matplotlib.patches import Circle
 
     fig, ax = new_figure((6, 6))
-    conflicts = np.array([t["conflict_deg"] for t in result.trials], float)
+    conflicts = np.array([t.get("conflict_deg", np.nan) for t in result.trials], float)  # a failed trial: none
     colour = colormaps["viridis"]
     shown = min(len(result.trials), 200)
     for i in range(shown):

@@ -22,10 +22,11 @@ def write_odometer_figures(result, config, out_dir: Path) -> list[Path]:
 
 
 def by_legs(result, key: str) -> dict[str, list[float]]:
-    """Each present leg condition's values of column ``key``, in :data:`LEG_ORDER`."""
-    present = {t["legs"] for t in result.trials}
-    return {legs: [float(t[key]) for t in result.trials if t["legs"] == legs] for legs in LEG_ORDER
-            if legs in present}
+    """Each present leg condition's values of column ``key`` over the trials that ran (a failed trial's row has
+    no metrics), in :data:`LEG_ORDER`."""
+    ran = [t for t in result.trials if t.get("status", "ok") == "ok" and "legs" in t]
+    present = {t["legs"] for t in ran}
+    return {legs: [float(t[key]) for t in ran if t["legs"] == legs] for legs in LEG_ORDER if legs in present}
 
 
 def search_start_figure(result, config):

@@ -25,8 +25,9 @@ def write_trail_figures(result, config, out_dir: Path) -> list[Path]:
             save(finish_time_figure(result), out_dir / "finish_time.png")]
 
 
-def _modes(result) -> list[str]:
-    return [MODES[int(t["antennae_moving"])] for t in result.trials]
+def _modes(result) -> list[str | None]:
+    """Each trial's antenna mode; None for a trial that failed (its row has no metrics: in no group)."""
+    return [MODES[int(t["antennae_moving"])] if "antennae_moving" in t else None for t in result.trials]
 
 
 def trajectories_figure(result, config):
@@ -47,6 +48,8 @@ def trajectories_figure(result, config):
     ax.imshow(image, extent=(*x_range, *y_range), origin="upper", cmap="Greens", vmin=0.0, vmax=1.6, gid="trail")
     labelled = set()
     for i, (mode, path) in enumerate(zip(_modes(result), paths)):
+        if mode is None:  # a failed trial: no path to draw
+            continue
         ax.plot(path[:, 0], path[:, 1], color=MODE_COLOURS[mode], lw=1.0, alpha=0.8, gid=f"trial {i} {mode}",
                 label=f"{mode} antennae" if mode not in labelled else None)
         labelled.add(mode)

@@ -21,6 +21,13 @@ def _odour(trial: dict, config) -> str:
     return ("on" if trial["odour_on"] else "off") if "odour_on" in trial else str(config.odour)
 
 
+def _outcome(trial: dict) -> str:
+    """How a trial ended, for a title."""
+    if trial.get("status", "ok") != "ok":
+        return "the trial failed"
+    return f"reached the source at {trial['time_to_source_s']:.1f} s" if trial["success"] else "did not arrive"
+
+
 def write_plume_figures(result, config, out_dir: Path) -> list[Path]:
     """plume_paths.png (Fig. 6e–f: the first trials, each over its own plume), trial0_senses.png (Fig. 6g),
     time_to_source.png."""
@@ -64,8 +71,7 @@ def plume_paths_figure(result, config, max_panels: int = MAX_PLUME_PANELS):
         ax.plot(puffs[:, 0], puffs[:, 1], ".", color="tab:purple", ms=1.5, alpha=0.5, gid=f"puffs {i}")
         _trial_path(ax, result, config, i, lw=1.6)
         trial = result.trials[i]
-        outcome = f"reached the source at {trial['time_to_source_s']:.1f} s" if trial["success"] else "did not arrive"
-        ax.set_title(f"trial {i} (odour {_odour(trial, config)}) over its own plume: {outcome}", fontsize=9)
+        ax.set_title(f"trial {i} (odour {_odour(trial, config)}) over its own plume: {_outcome(trial)}", fontsize=9)
     if overview:
         ax = axes[recorded]
         for i in range(len(result.trials)):
@@ -139,9 +145,7 @@ def senses_figure(result, config):
     axes[2].set_ylabel("wind (m/s)")
     axes[2].set_xlabel("time (s)")
     axes[2].legend(loc="upper left", fontsize=8)
-    trial = result.trials[0]
-    outcome = f"reached the source at {trial['time_to_source_s']:.1f} s" if trial["success"] else "did not arrive"
-    axes[0].set_title(f"trial 0 (odour {config.odour}): {outcome}")
+    axes[0].set_title(f"trial 0 (odour {config.odour}): {_outcome(result.trials[0])}")
     return fig
 
 
@@ -150,8 +154,8 @@ def times_figure(result, config):
     with its bootstrap 95 % interval; n counts the arrivals of all trials); right: reaching the source (each
     trial at 1 or 0, the proportion with its Wilson 95 % interval)."""
     fig, (ax, rate_ax) = new_figure((8, 4), 1, 2, gridspec_kw={"width_ratios": [1.4, 1]})
-    modes = [_odour(t, config) for t in result.trials]
-    present = [m for m in ("on", "off") if m in modes] or sorted(set(modes))
+    modes = [_odour(t, config) if t.get("status", "ok") == "ok" else None for t in result.trials]  # failed: none
+    present = [m for m in ("on", "off") if m in modes] or sorted(set(modes) - {None})
     colours = {f"odour {m}": ODOUR_COLOURS.get(m, "tab:blue") for m in present}
     condition_strip(ax, {f"odour {mode}": [t["time_to_source_s"] for t, m in zip(result.trials, modes) if m == mode]
                          for mode in present}, colours=colours, centre="median", box=True, gid="reached")

@@ -23,8 +23,10 @@ def write_beacon_figures(result, config, out_dir: Path) -> list[Path]:
             save(first_views_figure(result, config), out_dir / "first_views.png")]
 
 
-def _modes(result) -> list[str]:
-    return [MODES[int(t["eye_mode"])] if np.isfinite(t.get("eye_mode", np.nan)) else "both" for t in result.trials]
+def _modes(result) -> list[str | None]:
+    """Each trial's eye mode; None for a trial that failed (its row has no metrics: in no group)."""
+    return [None if "eye_mode" not in t else MODES[int(t["eye_mode"])] if np.isfinite(t["eye_mode"]) else "both"
+            for t in result.trials]
 
 
 def trajectories_figure(result, config):
@@ -36,6 +38,8 @@ def trajectories_figure(result, config):
     modes = _modes(result)
     labelled = set()
     for i, mode in enumerate(modes):
+        if mode is None:  # a failed trial: no path to draw
+            continue
         path = result.timeseries["position_m"][i]
         path = path[np.isfinite(path[:, 0])]
         ax.plot(path[:, 0], path[:, 1], color=MODE_COLOURS[mode], lw=1.2, gid=f"trial {i} {mode}",

@@ -161,3 +161,22 @@ def test_video_follows_the_slider(browser, report, tmp_path):
     finally:
         page.close()
 
+
+
+def test_a_large_first_replay_draws_while_the_page_is_still_loading(browser, tmp_path):
+    """Trial 0's replay is open from the start; a figure of megabytes (a swarm's 200 paths and cursors) must not be
+    read before the page has it all (its toggle event comes while the page is still being parsed)."""
+    out = tmp_path / "swarm"
+    assert cli.main(["run", "swarm-homing", "--trials", "2", "--set", "ants=200", "--no-figures", "--no-progress",
+                     "--out", str(out), "--report"]) == 0
+    page = browser.new_page(viewport={"width": 1400, "height": 1000})
+    errors = []
+    page.on("pageerror", lambda error: errors.append(str(error)))
+    try:
+        page.goto((out / "report.html").as_uri())
+        page.wait_for_function("document.querySelector('.replay .main-svg') !== null", timeout=30_000)
+        assert errors == []
+        paths = page.evaluate("document.querySelector('.replay').data.find(t => t.name === \"agents' paths\").x.length")
+        assert paths > 200 * 50  # every ant's path drawn
+    finally:
+        page.close()

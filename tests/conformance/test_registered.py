@@ -1,6 +1,7 @@
 """Every registered brain, backend and scenario builds, steps, stays finite and repeats under a seed."""
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -194,6 +195,29 @@ def test_scenario_runs_short_finite_and_repeats(name):
     assert_metrics_finite(scenario, first, scenario.statistics(config).condition)
     for key, array in first.timeseries.items():
         np.testing.assert_array_equal(array, second.timeseries[key], err_msg=key)
+
+
+@pytest.mark.parametrize("name", registry.names("scenario"))
+def test_scenario_figures_draw_the_trials_that_ran_beside_a_failed_one(name, tmp_path):
+    """A failed trial never loses the others (their figures included): its row is only the bookkeeping (trial,
+    seed, success, status, error) and its time series rows NaN, as a run writes them."""
+    from neuronav.runs.scenario import ScenarioResult
+
+    scenario = load_scenario(name)
+    config = apply_overrides(scenario.config_type, scenario.smoke_config())
+    result = run_trials(scenario, config, scenario.default_backend, trials=3, seed=5)
+    rows = list(result.trials)
+    rows[1] = {"trial": 1, "seed": 6, "success": False, "status": "failed", "error": "SimulationError: diverged"}
+    series = {}
+    for key, array in result.timeseries.items():
+        array = np.array(array)
+        if array.ndim and len(array) == 3 and np.issubdtype(array.dtype, np.floating):
+            array[1] = np.nan
+        series[key] = array
+    failed = ScenarioResult(trials=rows, timeseries=series, aggregates=result.aggregates,
+                            simulated_time_s=result.simulated_time_s)
+    paths = scenario.figures(failed, config, tmp_path)
+    assert paths and all(Path(path).exists() for path in paths)
 
 
 @pytest.mark.parametrize("name", registry.names("scenario"))

@@ -102,3 +102,18 @@ def test_the_paper_finding_with_20_ants_per_condition(backend):
     starts = by_legs(true, "search_start_m")
     for legs in ("stilts", "stumps"):
         assert abs(starts[legs].mean() - starts["normal"].mean()) < 0.01, legs
+
+
+def test_figures_leave_out_a_failed_trial(tmp_path):
+    """A failed trial's row has no metrics (no legs): the figures draw the trials that ran."""
+    from neuronav.runs.scenario import ScenarioResult
+    from neuronav.scenarios.odometer.figures import by_legs as figure_values
+
+    config = OdometerConfig()
+    ran = {"status": "ok", "legs": "stilts", "search_start_m": 12.0, "stride_length_m": 0.28,
+           "stride_length_believed_m": 0.23}
+    failed = {"trial": 1, "seed": 1, "success": False, "status": "failed", "error": "SimulationError: diverged"}
+    result = ScenarioResult(trials=[ran, failed], timeseries={})
+    assert figure_values(result, "search_start_m") == {"stilts": [12.0]}
+    paths = Odometer().figures(result, config, tmp_path)
+    assert {p.name for p in paths} == {"search_start.png", "stride_length.png"} and all(p.exists() for p in paths)

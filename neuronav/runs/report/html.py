@@ -39,8 +39,8 @@ video{max-width:100%} .imagelayer image{image-rendering:pixelated}
 # with the video). Plotly has no feature for either.
 GLUE = """
 function neuronavDraw(details){
-  var div=details.querySelector('.replay'); if(!div||div.dataset.drawn)return; div.dataset.drawn='1';
-  var fig=JSON.parse(document.getElementById(div.dataset.figure).textContent);
+  var div=details.querySelector('.replay'); if(!div||div.dataset.drawn)return;
+  var fig=JSON.parse(document.getElementById(div.dataset.figure).textContent); div.dataset.drawn='1';
   Plotly.newPlot(div,{data:fig.data,layout:fig.layout,frames:fig.frames,config:{responsive:true}}).then(function(){
     var video=div.dataset.video&&document.getElementById(div.dataset.video); if(!video)return;
     var times=fig.layout.meta.frame_times, end=times[times.length-1]||1, own=false;
@@ -54,6 +54,8 @@ function neuronavDraw(details){
   });
 }
 function neuronavDrawShown(){  // every open trial whose folds are all open (drawn at its real size)
+  // An open fold's toggle comes while the page is parsed, before its figure's data is all there: wait for it.
+  if(document.readyState==='loading')return;
   document.querySelectorAll('details.trial[open] .replay').forEach(function(div){
     if(div.checkVisibility?div.checkVisibility():div.offsetParent!==null)neuronavDraw(div.closest('details'));});
 }

@@ -62,9 +62,9 @@ PATH_COLOUR = "#d62728"
 """The path's colour (the browser test looks for it in a screenshot)."""
 CURSOR_COLOUR = "#111111"
 HEATMAP_CURSOR_COLOUR = "#ff00ff"
+"""The time cursor over a heatmap (magenta: not in the viridis colour map)."""
 MAX_MITRE = 4.0
 """A band's corner reaches at most this many half widths from its centre line (:func:`band_outline`)."""
-"""The time cursor over a heatmap (magenta: not in the viridis colour map)."""
 WORLD_COLOUR = "#7f7f7f"
 POINT_COLOURS = ("#2ca02c", "#1f77b4", "#ff7f0e", "#9467bd", "#8c564b", "#17becf")
 """The colours of a world's named points (nest, turn-back point, source, goal) in their recorded order."""
