@@ -46,11 +46,13 @@ def run_loop(engine, world, body, gait, clocks: Clocks, steering, *, heading_rad
                  if video_path is not None else None)
         loop = AgentLoop(engine, gait, clocks, steering=steering, hooks=[*hooks, *([video] if video else [])])
         loop.reset(seed=seed, position_m=tuple(position_m), yaw_rad=np.pi / 2 - heading_rad)
+        finished = False
         try:
             loop.run(duration_s, until=until)
+            finished = True
         finally:
             if video is not None:
-                video.close()
+                video.close(finished)  # a trial stopped or failed keeps its video under the temporary name
         final = engine.read(("position",))["position"][0]
     return loop, final, time.perf_counter() - started
 

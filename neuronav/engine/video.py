@@ -153,18 +153,21 @@ class VideoRecorder(Hook):
     def _partial(self) -> Path:
         return self.path.with_suffix(".partial.mp4")
 
-    def close(self) -> None:
-        """Finish the file and give it its name (nothing is written when no frame was taken)."""
+    def close(self, finished: bool = True) -> None:
+        """Finish the file and give it its name (nothing is written when no frame was taken); a trial that did not
+        finish (``finished`` False: stopped or failed) leaves its video under the temporary ``*.partial.mp4``,
+        which reports leave out."""
         if self._writer is not None:
             self._writer.close()
             self._writer = None
-            self._partial.replace(self.path)
+            if finished:
+                self._partial.replace(self.path)
 
     def __enter__(self) -> VideoRecorder:
         return self
 
-    def __exit__(self, *exc: object) -> None:
-        self.close()
+    def __exit__(self, kind, *exc: object) -> None:
+        self.close(finished=kind is None)
 
 
 def _rendered(backend, camera: str) -> Future:

@@ -258,11 +258,9 @@ def odometer_trial(config: OdometerConfig, backend_name: str, seed: int, video_p
     # Filmed (trial 0): each leg in a part of its own (each leg is its own engine and loop), joined after.
     parts = [None, None] if video_path is None else [Path(video_path).with_suffix(f".{leg}.partial.mp4")
                                                        for leg in ("outbound", "homeward")]
-    try:
-        row, log = _trip(config, backend_name, seed, legs, nest_m, across_m, heading_jitter, believed, motor, parts)
-    finally:
-        if video_path is not None:
-            join_videos(parts, video_path)
+    row, log = _trip(config, backend_name, seed, legs, nest_m, across_m, heading_jitter, believed, motor, parts)
+    if video_path is not None:  # (a trip stopped or failed leaves its legs' parts under their temporary names)
+        join_videos(parts, video_path)
     return row, log
 
 

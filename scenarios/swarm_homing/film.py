@@ -130,16 +130,17 @@ class SwarmFilm:
             _blend_pixels(base, new)
         return self._kept[1], self._kept[3]
 
-    def close(self) -> None:
-        """Finish the file and give it its name (nothing is written when no frame was taken)."""
+    def close(self, finished: bool = True) -> None:
+        """Finish the file and give it its name (nothing is written when no frame was taken); a swarm that did not
+        finish (stopped or failed) leaves its video under the temporary ``*.partial.mp4``."""
         if self._writer is None:
             return
         self._writer.close()
         self._writer = None
-        if self.frames:
-            self._partial.replace(self.path)
-        else:
+        if not self.frames:
             self._partial.unlink(missing_ok=True)
+        elif finished:
+            self._partial.replace(self.path)
 
 
 def _step_points(view, before_m: np.ndarray, after_m: np.ndarray) -> np.ndarray:

@@ -155,17 +155,19 @@ class SwarmBodies:
 def run_swarm(config: SwarmHomingConfig, backend: str, swarm: int, video_path: Path | None = None) -> dict:
     """Simulate swarm number ``swarm``: every ant's log and metrics (see the module docstring); with
     ``video_path``, filmed from above into that MP4 (:class:`~neuronav.scenarios.swarm_homing.film.SwarmFilm`)."""
-    film = None
+    film, finished = None, False
     try:
         if video_path is not None:
             from neuronav.scenarios.swarm_homing.film import SwarmFilm  # lazily: only videos need it
 
             film = SwarmFilm(video_path, SWARM_WORLD, home_positions(config.ants, config.spacing_m),
                              config.nest_radius_m, CONTROL_S, VIDEO_EVERY)
-        return _run_swarm(config, backend, swarm, film)
+        log = _run_swarm(config, backend, swarm, film)
+        finished = True
+        return log
     finally:
         if film is not None:
-            film.close()
+            film.close(finished)
 
 
 def _run_swarm(config: SwarmHomingConfig, backend: str, swarm: int, film) -> dict:

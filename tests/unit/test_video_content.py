@@ -196,3 +196,23 @@ def test_swarm_film_draws_each_ant_where_it_is_in_its_phase_colour_and_each_home
     assert c1 > c0 + 3
     walked = frames[-1][r0, c0 - 3: c0 + 2]
     assert (np.abs(walked - frames[-1][r0 + 40, c0 - 3: c0 + 2]).sum(axis=1) > 30).any()  # not bare ground
+
+
+def test_a_swarm_stopped_while_filmed_leaves_its_video_under_the_temporary_name(tmp_path, monkeypatch):
+    from neuronav.scenarios.swarm_homing import scenario as swarm
+
+    step = swarm.SwarmBodies.control_step
+    calls = []
+
+    def breaking(self, turn, stride):
+        calls.append(1)
+        if len(calls) > 40:
+            raise KeyboardInterrupt
+        step(self, turn, stride)
+
+    monkeypatch.setattr(swarm.SwarmBodies, "control_step", breaking)
+    path = tmp_path / "trial0.mp4"
+    config = swarm.SwarmHomingConfig(ants=2, outbound_s=3.2, homing_timeout_s=3.2)
+    with pytest.raises(KeyboardInterrupt):
+        swarm.run_swarm(config, "kinematic", 0, path)
+    assert not path.exists() and path.with_suffix(".partial.mp4").exists()

@@ -14,6 +14,7 @@
   as drawn in the loop, however late they are finished; a frame's error reaches the caller at close.
 """
 
+import contextlib
 import dataclasses
 import os
 
@@ -387,3 +388,29 @@ def test_join_videos_plays_the_parts_one_after_the_other_and_removes_them(tmp_pa
     assert sorted(p.name for p in tmp_path.iterdir()) == ["trial0.mp4"]
     join_videos([tmp_path / "none.mp4"], tmp_path / "nothing.mp4")  # nothing written: nothing made
     assert not (tmp_path / "nothing.mp4").exists()
+
+
+def test_a_trial_that_did_not_finish_leaves_its_video_under_the_temporary_name(tmp_path):
+    """Only a finished trial's video gets its name (reports leave ``*.partial.mp4`` out): stopped or failed, the
+    frames taken so far stay in the partial file."""
+    from types import SimpleNamespace
+
+    from neuronav.engine.video import VideoRecorder
+
+    class Camera:
+        def render(self, camera):
+            return np.full((48, 64, 3), 90, np.uint8)
+
+    loop = SimpleNamespace(backend=Camera(), clocks=SimpleNamespace(control_dt_s=0.008), control_steps=0)
+    for finishes in (True, False):
+        path = tmp_path / f"trial{int(finishes)}.mp4"
+        with pytest.raises(RuntimeError) if not finishes else contextlib.nullcontext():
+            with VideoRecorder(path, every=1) as recorder:
+                recorder.initialize_episode(loop)
+                for step in range(1, 6):
+                    loop.control_steps = step
+                    recorder.after_step(loop)
+                if not finishes:
+                    raise RuntimeError("the trial broke")
+        assert path.exists() == finishes
+        assert path.with_suffix(".partial.mp4").exists() != finishes
