@@ -45,6 +45,7 @@ from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import settings
 from neuronav.scenarios.motor_noise import stride_noise_field, turn_noise_field
 from neuronav.scenarios.path_integration.embodied import homing_noise, motor_noise
+from neuronav.scenarios.trial_loop import VIDEO_EVERY  # the other scenarios' frame rate
 from neuronav.scenarios.variability import variability_field
 from neuronav.spec.world import Ground, PointAgents, World
 
@@ -67,7 +68,6 @@ TRIAL_BYTES_PER_CYCLE = 32
 TRIAL_BYTES = 2048
 GOLDEN_ANGLE_RAD = np.pi * (3.0 - np.sqrt(5.0))
 SWARM_WORLD = World(ground=Ground(size_m=80.0))  # flat: the ground plane collides everywhere
-VIDEO_EVERY = 8  # --video: a frame every this many control steps (as the other scenarios' videos)
 
 
 @dataclass
@@ -117,10 +117,9 @@ class SwarmBodies:
 
     def __init__(self, backend: str, config: SwarmHomingConfig) -> None:
         self.backend, self.count = backend, config.ants
-        world = SWARM_WORLD
         if backend == "kinematic":  # point agents: the batched single backend carries any number
             self.engine = registry.load("backend", "kinematic")(timestep_s=CONTROL_S)
-            self.engine.load(world, [PointAgents(count=self.count, mode="unicycle")])
+            self.engine.load(SWARM_WORLD, [PointAgents(count=self.count, mode="unicycle")])
             self.gaits, self.physics_steps = None, 1
         else:  # articulated ants colliding in one world: the engine's registered swarm backend
             from neuronav.bodies.desert_ant import desert_ant
@@ -128,7 +127,7 @@ class SwarmBodies:
 
             ant = desert_ant()
             self.engine = registry.load("swarm_backend", backend)(timestep_s=config.timestep_s)
-            self.engine.load(world, [ant] * self.count)
+            self.engine.load(SWARM_WORLD, [ant] * self.count)
             self.gaits = [make_gait("tripod", ant) for _ in range(self.count)]
             self.physics_steps = integer_ratio(CONTROL_S, config.timestep_s, "control step (8 ms) / timestep_s")
 
