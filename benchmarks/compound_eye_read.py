@@ -11,7 +11,8 @@ Physics backends: one read is ``backend.read(["compound_eye_L", "compound_eye_R"
 (``desert_ant(compound_eyes=True, ommatidia_scale=--scale)``) standing at rest in the same three scenes, turned
 0.1 rad between reads (not timed): each eye's cube faces rendered in the green-and-UV colouring (MuJoCo: one
 scene update per face, of the objects it can show, and one buffer read for both eyes; PyBullet: TinyRenderer
-per face, a segmentation mask coloured per body, the flat floor from rays) and one sparse product per eye
+per face, of 12-sided copies of the objects it can show, a segmentation mask coloured per body, the flat floor
+from rays) and one sparse product per eye
 (:mod:`neuronav.senses.compound_eye_views`). Median over ``--physics-reads`` reads.
 
 CPU time (``time.process_time``) next to wall time (``time.perf_counter``); the targets are judged on
@@ -102,7 +103,7 @@ PHYSICS_REASONS = {
     "mujoco": "Mesa's llvmpipe draws each tree in every face that shows it, about 150 geom draws per read in the"
               " 40-tree forest after each face's cull (bounding sphere and box), at the eyes' 12 x 6 tessellation",
     "pybullet": "TinyRenderer draws each tree in every face that shows it (one getCameraImage call per face, 10 per"
-                " read, objects culled per face by bounding sphere; the flat floor comes from rays)",
+                " read; 12-sided copies of the objects, culled per face by bounding sphere; the flat floor from rays)",
 }
 
 

@@ -471,10 +471,10 @@ class MujocoBackend(ArticulatedBackend):
         if (origins == origins[0]).all():  # one origin (an agent's rays): one call
             return self._multi_ray(origins[0], directions, max_distance_m)
         distances = np.full(origins.shape[0], np.inf)
-        # the rays of each distinct origin together
-        inverse = np.unique(origins, axis=0, return_inverse=True)[1].reshape(-1)
-        order = np.argsort(inverse, kind="stable")
-        for rows in np.split(order, np.flatnonzero(np.diff(inverse[order])) + 1):
+        # One call per run of rays sharing an origin (an eye's rays come together; a run met again only costs
+        # one call more). Cheaper than grouping all equal origins with np.unique(axis=0).
+        starts = np.flatnonzero((origins[1:] != origins[:-1]).any(axis=1)) + 1
+        for rows in np.split(np.arange(origins.shape[0]), starts):
             distances[rows] = self._multi_ray(origins[rows[0]], directions[rows], max_distance_m)
         return distances
 
@@ -746,17 +746,19 @@ class _FlatRenderer:
         # an open world); views that face different objects (the eyes in a forest, a compound eye's cube
         # faces) each get the scene of what they face, cheaper to draw than the union of all.
         visible = self._visible(model, data, views)
-        patterns, scene_of_view = np.unique(visible, axis=0, return_inverse=True)
+        scenes: dict[bytes, list[int]] = {}  # the views of each visibility pattern (np.unique(axis=0) cost 0.4 ms)
+        for v, pattern in enumerate(visible):
+            scenes.setdefault(pattern.tobytes(), []).append(v)
         if spectral is not None:  # the world in its spectral colours, set once for the read
             ids, rgba = spectral
             kept_rgba, kept_matid = model.geom_rgba[ids].copy(), model.geom_matid[ids].copy()
             model.geom_rgba[ids], model.geom_matid[ids] = rgba, -1
         try:
-            for k, pattern in enumerate(patterns):
-                culled = self._cullable[~pattern]
+            for members in scenes.values():
+                culled = self._cullable[~visible[members[0]]]
                 model.geom_group[culled] = CULLED_GROUP
                 self._update_scene(model, data, culled)
-                for v in np.flatnonzero(scene_of_view.reshape(-1) == k):
+                for v in members:
                     self._draw(views[v], places[v], context)
         finally:
             if spectral is not None:

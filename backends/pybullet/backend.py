@@ -66,7 +66,9 @@ Design
   reaching ``vision.GROUND_REACH_M``), built on the first body-camera render: the body is not in
   the picture, and a render does not pay for its triangles. A camera with ``sees_body`` renders
   there too, with a copy of the body (loaded on first use) put in the physics body's pose; it is
-  parked 10 km under the ground otherwise. ``set_scene_yaw`` moves the objects in both clients
+  parked 10 km under the ground otherwise. Compound eyes draw their own copies of the objects there, coarser
+  (:func:`neuronav.backends.pybullet.scene.build_eye_objects`, as MuJoCo's compound eyes draw them), hidden
+  from the cameras, and the cameras' hidden from them. ``set_scene_yaw`` moves the objects in both clients
   (:func:`neuronav.backends.pybullet.scene.place_objects`; in the physics client they keep colliding), and a
   reset, which rebuilds the physics client, puts them back at the current scene yaw.
 - ``"follow"`` renders :func:`neuronav.engine.articulated.follow_view` in the physics client, lit as
@@ -89,7 +91,14 @@ import numpy as np
 
 from neuronav.backends.pybullet.camera import ObjectCulling, render_flat, render_follow, render_spectral, spectral_lut
 from neuronav.backends.pybullet.engine import EngineOutput, configure_client, pb
-from neuronav.backends.pybullet.scene import build_ground, build_object, build_vision_world, exact_rgba, place_objects
+from neuronav.backends.pybullet.scene import (
+    build_eye_objects,
+    build_ground,
+    build_object,
+    build_vision_world,
+    exact_rgba,
+    place_objects,
+)
 from neuronav.backends.pybullet.urdf import body_to_urdf, find_geom
 from neuronav.engine.articulated import ArticulatedBackend, FollowView
 from neuronav.engine.backend import quat_product
@@ -184,6 +193,8 @@ class PybulletBackend(ArticulatedBackend):
         self._pending: list[tuple[int, np.ndarray, np.ndarray]] = []
         self._objects: list[int] = []
         self._vision: int | None = None  # the render-only client (see the module doc)
+        self._eye_objects: list[int] = []  # the compound eyes' copies of the objects there
+        self._eye_culling: ObjectCulling | None = None
 
     # -- protocol: set-up --------------------------------------------------------------------------
     @property
@@ -328,21 +339,29 @@ class PybulletBackend(ArticulatedBackend):
                       spectral: bool = False) -> list[tuple[np.ndarray, np.ndarray]]:
         cid = self._vision_client()
         self._show_body(sees_body)
-        self._vision_culling.yaw_rad = self._scene_yaw_rad
         if spectral:
-            if self._vision_spectral is None:
-                self._vision_spectral = spectral_lut(self.world, self._vision_ground, self._vision_objects)
+            # The compound eyes draw the objects' coarse copies (scene.build_eye_objects), the cameras' hidden.
+            if self._eye_culling is None:
+                self._eye_objects = build_eye_objects(cid, self.world)
+                place_objects(cid, self._eye_objects, self.world.objects, self._scene_yaw_rad)
+                self._eye_culling = ObjectCulling(cid, self._eye_objects, self.world.objects, hidden=True)
+                self._vision_spectral = spectral_lut(self.world, self._vision_ground, self._eye_objects)
+            self._vision_culling.hide_all()
+            culling = self._eye_culling
+            culling.yaw_rad = self._scene_yaw_rad
             if len(self._vision_ground) > 1:  # a heightfield: TinyRenderer draws the ground
-                return render_spectral(cid, views, self._vision_spectral, self._vision_culling)
+                return render_spectral(cid, views, self._vision_spectral, culling)
             # A flat floor: hidden while the faces are drawn, its pixels drawn from their rays (render_spectral).
             floor = self._vision_ground[0]
             pb.changeVisualShape(floor, -1, rgbaColor=[0.0, 0.0, 0.0, 0.0], physicsClientId=cid)
             try:
-                return render_spectral(cid, views, self._vision_spectral, self._vision_culling,
-                                       (floor, self._vision_floor_z_m))
+                return render_spectral(cid, views, self._vision_spectral, culling, (floor, self._vision_floor_z_m))
             finally:
                 pb.changeVisualShape(floor, -1, rgbaColor=exact_rgba(self.world.appearance.ground_rgb),
                                      physicsClientId=cid)
+        if self._eye_culling is not None:
+            self._eye_culling.hide_all()
+        self._vision_culling.yaw_rad = self._scene_yaw_rad
         return [render_flat(cid, view, self.world, self._vision_ground, self._vision_floor_z_m, self._vision_culling)
                 for view in views]
 
@@ -350,6 +369,8 @@ class PybulletBackend(ArticulatedBackend):
         place_objects(self._client, self._objects, self.world.objects, yaw_rad)
         if self._vision is not None:
             place_objects(self._vision, self._vision_objects, self.world.objects, yaw_rad)
+            if self._eye_objects:
+                place_objects(self._vision, self._eye_objects, self.world.objects, yaw_rad)
 
     def _vision_client(self) -> int:
         """The render-only client with the world's looks (built on first use, at the current scene yaw)."""
@@ -361,7 +382,9 @@ class PybulletBackend(ArticulatedBackend):
             self._vision_ground, self._vision_floor_z_m, self._vision_objects = build_vision_world(cid, self.world)
             place_objects(cid, self._vision_objects, self.world.objects, self._scene_yaw_rad)
             self._vision_culling = ObjectCulling(cid, self._vision_objects, self.world.objects)
-            self._vision_spectral = None  # the compound eyes' colours by body (spectral_lut), made on first use
+            # The compound eyes' coarse copies of the objects, their culling and their colours by body
+            # (spectral_lut), made on their first read.
+            self._eye_objects, self._eye_culling, self._vision_spectral = [], None, None
         return self._vision
 
     def _show_body(self, shown: bool) -> None:

@@ -22,6 +22,8 @@ What TinyRenderer does and how it is made to follow :mod:`neuronav.senses.vision
 - **Compound eyes.** Their cube faces (:mod:`neuronav.senses.compound_eye_views`) are coloured from the
   segmentation mask, body by body (:func:`spectral_lut`: each object's green and UV, the ground's for the rest);
   a flat world's floor is hidden from TinyRenderer and drawn from the pixels' rays (:func:`render_spectral`).
+  They draw their own, coarser copies of the objects (:func:`neuronav.backends.pybullet.scene.build_eye_objects`),
+  each face only those it can show, the faces in the order that toggles fewest objects in between.
 - **Follow view.** Lit with TinyRenderer's default light, at half its size a side (:data:`FOLLOW_SCALE`:
   a quarter of the pixels to shade, what a frame of video costs), scaled up bilinearly (:func:`upsample2`).
 - **Culling.** TinyRenderer transforms every triangle of every shape, in view or not; it skips a shape
@@ -105,16 +107,34 @@ def bounding_radius_m(obj: WorldObject) -> float:
     return float(np.linalg.norm(size))  # box: the half extents; cylinder and cone: radius and half height
 
 
-def spheres_in_view(centres_m: np.ndarray, radii_m: np.ndarray, view: View) -> np.ndarray:
-    """Which spheres (n, 3) centres, (n,) radii reach into ``view``'s frustum (between ``NEAR_M`` and
-    ``FAR_M``, inside its four sides); a side at or beyond 90° from the axis is not tested."""
-    local = (np.asarray(centres_m, float) - view.eye_m) @ view.rotation  # view axes: x right, y up, z backwards
-    depth = -local[:, 2]
-    inside = (depth + radii_m > NEAR_M) & (depth - radii_m < FAR_M)
-    for axis, half_rad in ((0, view.fov_rad[0] / 2.0), (1, view.fov_rad[1] / 2.0)):
-        if half_rad < math.pi / 2.0:  # the signed distance to each side plane is at most the radius
-            inside &= np.abs(local[:, axis]) * math.cos(half_rad) - depth * math.sin(half_rad) <= radii_m
+def spheres_in_views(centres_m: np.ndarray, radii_m: np.ndarray, views: list[View]) -> np.ndarray:
+    """Which spheres (n, 3) centres, (n,) radii reach into each view's frustum (between ``NEAR_M`` and ``FAR_M``,
+    inside its four sides; a side at or beyond 90° from the axis is not tested): bool (views, n)."""
+    centres_m = np.asarray(centres_m, float)
+    inside = np.empty((len(views), len(centres_m)), dtype=bool)
+    for v, view in enumerate(views):
+        local = (centres_m - view.eye_m) @ view.rotation  # view axes: x right, y up, z backwards
+        depth = -local[:, 2]
+        shown = (depth + radii_m > NEAR_M) & (depth - radii_m < FAR_M)
+        for axis, half_rad in ((0, view.fov_rad[0] / 2.0), (1, view.fov_rad[1] / 2.0)):
+            if half_rad < math.pi / 2.0:  # the signed distance to each side plane is at most the radius
+                shown &= np.abs(local[:, axis]) * math.cos(half_rad) - depth * math.sin(half_rad) <= radii_m
+        inside[v] = shown
     return inside
+
+
+def fewest_changes_order(shown: np.ndarray, start: np.ndarray) -> list[int]:
+    """An order of the rows of ``shown`` (V, n) bool that goes from ``start`` (n,) each time to the nearest row
+    left (fewest entries differing): views drawn in this order toggle few objects in between."""
+    differ = (shown[:, None, :] != shown[None, :, :]).sum(axis=2)  # (V, V)
+    left = list(range(len(shown)))
+    order = [min(left, key=lambda v: int((shown[v] != start).sum()))]
+    left.remove(order[0])
+    while left:
+        nearest = min(left, key=lambda v: differ[order[-1], v])
+        order.append(nearest)
+        left.remove(nearest)
+    return order
 
 
 class ObjectCulling:
@@ -128,24 +148,44 @@ class ObjectCulling:
         The objects' bodies, in ``objects``' order (each at its declared pose turned about the world z axis).
     objects : sequence of WorldObject
         The world's objects.
+    hidden : bool
+        Whether the objects start hidden (alpha 0) rather than shown.
     """
 
-    def __init__(self, cid: int, handles: list[int], objects) -> None:
+    def __init__(self, cid: int, handles: list[int], objects, hidden: bool = False) -> None:
         self._cid, self._handles = cid, list(handles)
         self._positions_m = np.array([obj.position_m for obj in objects], float).reshape(-1, 3)
         self._radii_m = np.array([bounding_radius_m(obj) for obj in objects], float)
         self._rgba = [exact_rgba(obj.rgba) for obj in objects]
-        self._hidden = np.zeros(len(self._handles), dtype=bool)
+        self._hidden = np.full(len(self._handles), hidden)  # alpha 0, not drawn
+        self.count = len(self._handles)
         self.yaw_rad = 0.0  # the scene's turn about the world z axis
 
-    def only_for(self, view: View) -> None:
-        """Hide the objects ``view`` cannot show and show the others (only those that change are touched)."""
-        if not self._handles:
-            return
+    def hide_all(self) -> None:
+        """Hide every object (another set of the same objects is drawn meanwhile)."""
+        for k in np.flatnonzero(~self._hidden):
+            pb.changeVisualShape(self._handles[k], -1, rgbaColor=[*self._rgba[k][:3], 0.0], physicsClientId=self._cid)
+        self._hidden[:] = True
+
+    def visible_in(self, views: list[View]) -> np.ndarray:
+        """Whether each object's bounding sphere reaches into each view, bool (views, objects)."""
         c, s = math.cos(self.yaw_rad), math.sin(self.yaw_rad)
         x, y, z = self._positions_m.T
         centres = np.column_stack([c * x - s * y, s * x + c * y, z])
-        shown = spheres_in_view(centres, self._radii_m, view)
+        return spheres_in_views(centres, self._radii_m, views)
+
+    def only_for(self, view: View) -> None:
+        """Hide the objects ``view`` cannot show and show the others (only those that change are touched)."""
+        if self._handles:
+            self.show(self.visible_in([view])[0])
+
+    @property
+    def shown(self) -> np.ndarray:
+        """Which objects are drawn now, bool (objects,)."""
+        return ~self._hidden
+
+    def show(self, shown: np.ndarray) -> None:
+        """Show the objects ``shown`` (bool, one per object) and hide the others (only those that change)."""
         for k in np.flatnonzero(shown == self._hidden):
             rgba = self._rgba[k] if shown[k] else [*self._rgba[k][:3], 0.0]
             pb.changeVisualShape(self._handles[k], -1, rgbaColor=rgba, physicsClientId=self._cid)
@@ -195,29 +235,55 @@ def render_spectral(cid: int, views: list[View], lut: np.ndarray, culling: Objec
     here from their rays, where a ray meets the plane between ``NEAR_M`` and ``FAR_M`` (as the kinematic
     backend's rays see it) nearer than what TinyRenderer drew, in the floor's colour. TinyRenderer spends most
     of a face's time filling the floor's huge triangles (1.25 of 1.57 ms for an eye's five faces in the open).
+
+    ``culling``: each view shows only the objects it can (:class:`ObjectCulling`); the views are drawn in the
+    order that toggles fewest objects between them (:func:`fewest_changes_order`) and returned in their own.
     """
-    out = []
-    for view in views:
-        if culling is not None:
-            culling.only_for(view)
+    order = list(range(len(views)))
+    if culling is not None and culling.count:
+        # Each view with the objects it can show, in the order that toggles fewest objects between views.
+        shown = culling.visible_in(views)
+        order = fewest_changes_order(shown, culling.shown)
+    drawn: list = [None] * len(views)  # (depth, segmentation) per view
+    for v in order:
+        view = views[v]
+        if culling is not None and culling.count:
+            culling.show(shown[v])
         width, height = int(view.width_px), int(view.height_px)
         eye = np.asarray(view.eye_m, float) + EYE_NUDGE_M
         _, _, _, depth, seg = pb.getCameraImage(width, height, view_matrix(eye, np.asarray(view.rotation)),
                                                 projection(view.fov_rad[0], view.fov_rad[1], width, height),
                                                 shadow=0, renderer=pb.ER_TINY_RENDERER, physicsClientId=cid,
                                                 **FLAT_LIGHT)
-        depth = np.asarray(depth, np.float32).reshape(height, width)
-        image, sky = lut[np.clip(np.asarray(seg).reshape(height, width), 0, len(lut) - 1)], depth >= 1.0
+        drawn[v] = (np.asarray(depth, np.float32).reshape(height, width), np.asarray(seg).reshape(height, width))
+    # Coloured together, the views of one size and field (a compound eye's faces): one array operation each.
+    groups: dict[tuple, list[int]] = {}
+    for v, view in enumerate(views):
+        groups.setdefault((int(view.width_px), int(view.height_px), *map(float, view.fov_rad)), []).append(v)
+    # Each colour packed in one uint32 (its three bytes and a zero): one gather per pixel, not three.
+    packed = np.zeros((len(lut), 4), dtype=np.uint8)
+    packed[:, :3] = lut
+    colour_of = packed.view(np.uint32).reshape(-1)
+    out: list = [None] * len(views)
+    for members in groups.values():
+        depth = np.stack([drawn[v][0] for v in members])
+        image = colour_of[np.clip(np.stack([drawn[v][1] for v in members]), 0, len(lut) - 1)]
+        sky = depth >= 1.0
         if floor is not None:
-            local, back = _floor_rays(width, height, *view.fov_rad)
-            down = local @ np.asarray(view.rotation, float)[2]  # each ray's world z
+            first = views[members[0]]
+            local, back = _floor_rays(int(first.width_px), int(first.height_px), *first.fov_rad)
+            world_z = np.array([np.asarray(views[v].rotation, float)[2] for v in members])  # (k, 3)
+            down = (world_z @ local.reshape(-1, 3).T).reshape(len(members), *back.shape)  # each ray's world z
+            eye_z_m = np.array([float(views[v].eye_m[2]) for v in members])[:, None, None]
             with np.errstate(divide="ignore", invalid="ignore"):
-                reach_m = (floor[1] - float(view.eye_m[2])) / down  # along the ray to the plane
+                reach_m = (floor[1] - eye_z_m) / down  # along the ray to the plane
             ground = (down < 0) & (reach_m >= NEAR_M) & (reach_m <= FAR_M)
             ground &= sky | (linear_depth_m(depth) > reach_m * back)  # nearer than what was drawn
-            image[ground] = lut[floor[0]]
+            image[ground] = colour_of[floor[0]]
             sky &= ~ground
-        out.append((image, sky))
+        rgb = image.view(np.uint8).reshape(*image.shape, 4)[..., :3]
+        for k, v in enumerate(members):
+            out[v] = (rgb[k], sky[k])
     return out
 
 

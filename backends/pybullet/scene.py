@@ -10,7 +10,8 @@ Two builds of one :class:`World`:
   it, out to the same reach, a ring in the checker's mean colour: no floor edge under the horizon);
 - :func:`build_vision_world` in a render-only client that holds no body: looks only, the ground
   reaching :data:`neuronav.senses.vision.GROUND_REACH_M` from the origin. Body cameras colour the ground
-  themselves (:mod:`neuronav.backends.pybullet.camera`), so its look there does not matter.
+  themselves (:mod:`neuronav.backends.pybullet.camera`), so its look there does not matter. The compound
+  eyes draw a second, coarser copy of the objects there (:func:`build_eye_objects`), hidden from the cameras.
 
 Odour trails (:mod:`neuronav.senses.trail_floor`, flat grounds only): in the physics client, a visual-only
 mesh (no collision shape: nothing touches it, no ray hits it) over the floor image's rectangle,
@@ -38,6 +39,11 @@ from neuronav.spec.world import World, WorldObject
 WALL_THICKNESS_M = 0.2
 WALL_RGB = (0.6, 0.6, 0.65)
 CONE_SIDES = 32
+# The compound eyes' copies of the round objects (in the render-only client): spheres, cylinders and cones of
+# EYE_SIDES sides, a sphere of EYE_STACKS stacks, as MuJoCo's compound eyes draw them. TinyRenderer's cost grows
+# with the triangles it draws: its own spheres and cylinders and the 32-sided cones cost a 40-tree forest's
+# compound-eye read about 1.8 times the GL time, for silhouettes a fraction of a face pixel truer.
+EYE_SIDES, EYE_STACKS = 12, 6
 # The videos' floor texture has one texel per checker square, at most this many squares a side.
 MAX_FLOOR_SQUARES = 1024
 # Below the heightfield (uneven ground), the flat floor's look hides this far under z = 0.
@@ -222,9 +228,65 @@ def checker_image(appearance, squares: int) -> np.ndarray:
     return to_uint8(ground_rgb_at(appearance, centres[None, :], centres[::-1, None]))
 
 
-def build_object(cid: int, world: World, obj: WorldObject, with_collision: bool = True) -> int:
-    """A static primitive (a cone: the convex hull of a many-sided pyramid) at its declared pose; its body."""
+def build_eye_objects(cid: int, world: World) -> list[int]:
+    """The world's objects as the compound eyes draw them, in the render-only client: looks only, round shapes of
+    :data:`EYE_SIDES` sides (:func:`round_mesh`), in ``world.objects``' order. Hidden (alpha 0, which TinyRenderer
+    does not draw) until a culling shows them."""
+    handles = [build_object(cid, world, obj, with_collision=False, sides=EYE_SIDES) for obj in world.objects]
+    for handle in handles:
+        pb.changeVisualShape(handle, -1, rgbaColor=[0.0, 0.0, 0.0, 0.0], physicsClientId=cid)
+    return handles
+
+
+def round_mesh(obj: WorldObject, sides: int, stacks: int = EYE_STACKS) -> tuple[list[list[float]], list[int]]:
+    """A sphere, cylinder or cone as a closed triangle mesh about its centre: vertices on the true surface
+    (``sides`` around; a sphere's ``stacks`` from pole to pole, its poles single vertices), every triangle wound
+    to face outwards. Returns the vertices and the flat triangle indices."""
+    angles = np.linspace(0.0, 2.0 * np.pi, sides, endpoint=False)
+    circle = np.column_stack([np.cos(angles), np.sin(angles)])
+
+    def ring(radius: float, z: float) -> np.ndarray:
+        return np.column_stack([radius * circle, np.full(sides, z)])
+
+    if obj.shape == "sphere":
+        radius = float(obj.size_m[0])
+        polar = np.pi * np.arange(1, stacks) / stacks
+        rings = [ring(radius * math.sin(a), radius * math.cos(a)) for a in polar]
+        poles = [[0.0, 0.0, radius], [0.0, 0.0, -radius]]
+    else:  # cylinder (two rings) or cone (a ring and its apex), radius and half height
+        radius, half = map(float, obj.size_m)
+        rings = [ring(radius, half), ring(radius, -half)] if obj.shape == "cylinder" else [ring(radius, -half)]
+        poles = [[0.0, 0.0, half], [0.0, 0.0, -half]]
+    vertices = np.vstack([*rings, poles])
+    top, bottom = len(rings) * sides, len(rings) * sides + 1
+    triangles = []
+    for j in range(sides):
+        k = (j + 1) % sides
+        triangles += [(top, j, k), (bottom, (len(rings) - 1) * sides + k, (len(rings) - 1) * sides + j)]
+        for r in range(len(rings) - 1):
+            a, b = r * sides, (r + 1) * sides
+            triangles += [(a + j, b + j, b + k), (a + j, b + k, a + k)]
+    triangles = np.array(triangles)
+    corners = vertices[triangles]  # (T, 3, 3)
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    inward = (normals * corners.mean(axis=1)).sum(axis=1) < 0.0  # the mesh is convex about its centre
+    triangles[inward] = triangles[inward][:, ::-1]
+    return vertices.tolist(), triangles.ravel().tolist()
+
+
+def build_object(cid: int, world: World, obj: WorldObject, with_collision: bool = True,
+                 sides: int | None = None) -> int:
+    """A static primitive (a cone: the convex hull of a many-sided pyramid) at its declared pose; its body.
+    ``sides``: a look-only object (``with_collision`` False) drawn as a mesh of that many sides if it is round
+    (:func:`round_mesh`)."""
     rgba = exact_rgba(obj.rgba)
+    if sides is not None and obj.shape != "box":
+        if with_collision:
+            raise ValueError("build_object: only a look-only object (with_collision=False) takes sides")
+        vertices, indices = round_mesh(obj, sides)
+        look = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=rgba,
+                                    physicsClientId=cid)
+        return pb.createMultiBody(0.0, -1, look, list(obj.position_m), physicsClientId=cid)
     if obj.shape == "box":
         kwargs = {"shapeType": pb.GEOM_BOX, "halfExtents": list(obj.size_m)}
         shape = pb.createCollisionShape(**kwargs, physicsClientId=cid) if with_collision else -1

@@ -100,11 +100,67 @@ class FrameWriter:
             raise self._error
 
 
-class VideoRecorder(Hook):
+class VideoFile:
+    """An MP4 ``path`` written under the temporary ``*.partial.mp4`` (a :class:`FrameWriter` opened on the first
+    frame) and given its name by :meth:`close` once the trial finished. A failure to take, draw or encode a frame
+    stops the video, not the trial (:meth:`_give_up`): what was written stays in the partial file, :attr:`error`
+    and :func:`video_failure_path` say why, and the trial keeps its results.
+
+    Attributes
+    ----------
+    path : Path
+    frames : int
+        Frames written.
+    error : str or None
+        Why filming stopped, None while it goes well.
+    """
+
+    def __init__(self, path: Path) -> None:
+        self.path = Path(path)
+        video_failure_path(self.path).unlink(missing_ok=True)  # an earlier attempt's note is not this one's
+        self.frames = 0
+        self.error: str | None = None
+        self._writer: FrameWriter | None = None
+
+    @property
+    def _partial(self) -> Path:
+        return self.path.with_suffix(".partial.mp4")
+
+    def close(self, finished: bool = True) -> None:
+        """Finish the file and give it its name (nothing is written when no frame was taken); a trial that did not
+        finish (``finished`` False: stopped or failed) leaves its video under the temporary ``*.partial.mp4``,
+        which reports leave out. A video that failed (:attr:`error`) stays there too."""
+        writer, self._writer = self._writer, None
+        if writer is None:
+            return
+        try:
+            writer.close()
+            if finished:
+                self._partial.replace(self.path)
+        except Exception as error:  # noqa: BLE001 -- the trial's results stand without their video
+            self._give_up(error, None)
+
+    def _give_up(self, error: Exception, time_s: float | None) -> None:
+        """Stop filming after ``error`` (the frames written so far stay in ``*.partial.mp4``) and say why in
+        :func:`video_failure_path`: the trial goes on and keeps its results."""
+        writer, self._writer = self._writer, None
+        if writer is not None:
+            try:
+                writer.close()
+            except Exception:  # noqa: BLE001 -- the first error is the one to tell
+                pass
+        when = f" at {time_s:.2f} s of the trial" if time_s is not None else " while finishing the file"
+        self.error = (f"{self.path.name} stopped{when} after {self.frames} frames "
+                      f"(kept as {self._partial.name}): {type(error).__name__}: {error}")
+        note_video_failure(self.path, self.error)
+
+
+class VideoRecorder(Hook, VideoFile):
     """Streams ``camera`` every ``every`` control steps into the MP4 ``path``, at real-time speed.
 
     The file is written under a temporary name and moved to ``path`` by :meth:`close` (call it once
-    the episode is over; a recorder is also a context manager). ``frames`` counts what was written.
+    the episode is over; a recorder is also a context manager). ``frames`` counts what was written; a video that
+    fails stops, the trial goes on (:class:`VideoFile`).
     ``compose(frame, loop) -> frame``, when given, draws on each frame before it is written (what the
     experiment shows: :class:`neuronav.engine.video_overlay.VideoOverlay`).
 
@@ -121,18 +177,24 @@ class VideoRecorder(Hook):
                  background: bool | None = None) -> None:
         if not (isinstance(every, int) and every >= 1):
             raise ConfigError(f"video: every must be an int >= 1 control steps, got {every!r}")
-        self.path, self.camera, self.every, self.compose = Path(path), camera, every, compose
+        VideoFile.__init__(self, path)
+        self.camera, self.every, self.compose = camera, every, compose
         self.background = DRAW_BESIDE_LOOP if background is None else bool(background)
-        self.frames = 0
         self.fps: float | None = None
-        self._writer = None
 
     def initialize_episode(self, loop: AgentLoop) -> None:
         self.fps = real_time_fps(loop.clocks.control_dt_s, self.every)
 
     def after_step(self, loop: AgentLoop) -> None:
-        if (loop.control_steps - 1) % self.every:
+        if self.error is not None or (loop.control_steps - 1) % self.every:
             return
+        try:
+            self._film(loop)
+        except Exception as error:  # noqa: BLE001 -- the trial goes on unfilmed; why is written beside the video
+            self._give_up(error, getattr(loop, "time_s", None))
+
+    def _film(self, loop: AgentLoop) -> None:
+        """Take this step's frame (drawn and encoded beside the loop where it can be)."""
         if self._writer is None:
             self._writer = FrameWriter(self._partial, self.fps or real_time_fps(loop.clocks.control_dt_s, self.every))
         prepare = getattr(self.compose, "prepare", None)
@@ -149,25 +211,50 @@ class VideoRecorder(Hook):
             self._writer.append(frame)
         self.frames += 1
 
-    @property
-    def _partial(self) -> Path:
-        return self.path.with_suffix(".partial.mp4")
-
-    def close(self, finished: bool = True) -> None:
-        """Finish the file and give it its name (nothing is written when no frame was taken); a trial that did not
-        finish (``finished`` False: stopped or failed) leaves its video under the temporary ``*.partial.mp4``,
-        which reports leave out."""
-        if self._writer is not None:
-            self._writer.close()
-            self._writer = None
-            if finished:
-                self._partial.replace(self.path)
 
     def __enter__(self) -> VideoRecorder:
         return self
 
     def __exit__(self, kind, *exc: object) -> None:
         self.close(finished=kind is None)
+
+
+def join_filmed_parts(parts: Sequence[Path], path: Path) -> None:
+    """The filmed parts (each a :class:`VideoRecorder`'s ``path``) joined into ``path`` (:func:`join_videos`);
+    when a part's video failed, or the joining does, ``path`` is not written and :func:`video_failure_path` of it
+    says why (the parts stay as they were written): the trial keeps its results."""
+    failed = [reason for reason in map(video_failure, parts) if reason]
+    for part in parts:
+        video_failure_path(part).unlink(missing_ok=True)
+    if failed:
+        note_video_failure(path, failed[0])
+        return
+    try:
+        join_videos(parts, path)
+    except Exception as error:  # noqa: BLE001 -- the trial's results stand without their video
+        note_video_failure(path, f"{Path(path).name}: joining {len(parts)} parts failed: {error}")
+
+
+def video_failure_path(path: Path) -> Path:
+    """Where a video that failed says why: ``trial0.mp4`` -> ``trial0.video-error.txt`` (one line), read back by
+    the run (:func:`video_failure`), which keeps the trial's results and exits 1."""
+    return Path(path).with_suffix(".video-error.txt")
+
+
+def note_video_failure(path: Path, reason: str) -> None:
+    """Write ``reason`` (one line) to :func:`video_failure_path` of ``path`` (best effort: a full disk may be why)."""
+    try:
+        video_failure_path(path).write_text(" ".join(str(reason).split()) + "\n")
+    except OSError:
+        pass
+
+
+def video_failure(path: Path) -> str:
+    """Why the video ``path`` failed ("" when it did not, or was not asked for)."""
+    try:
+        return video_failure_path(path).read_text().strip()
+    except OSError:
+        return ""
 
 
 def _rendered(backend, camera: str) -> Future:

@@ -20,6 +20,7 @@ from neuronav.runs.figure_process import draw_figures
 from neuronav.runs.grid import GridPoint
 from neuronav.runs.rundir import (
     PARTS_DIR,
+    VIDEO_NAME,
     git_revision,
     json_default,
     list_parts,
@@ -93,12 +94,16 @@ class Assembler:
         figure_paths, extra = self._figures(result, point, folder)
         compute_s = sum(m.get("compute_s", 0.0) for m in metas)
         extra["statistics"] = self._statistics(rows, point.config)
+        from neuronav.engine.video import video_failure  # lazily: a run without video never needs it
+
+        video_error = video_failure(folder / VIDEO_NAME)
         extra.update({
             **({"grid": point.labels} if point.labels else {}),
             "compute_time_s": compute_s, "chunks": len(parts), "parts": names,
             "figures_requested": self.figures, "first_error": first_failure(rows),
             "timeseries": sorted(timeseries), **({"timeseries_problems": problems} if problems else {}),
             **({"aggregates_note": note} if note else {}),
+            **({"video_error": video_error} if video_error else {}),
         })
         summary = write_run_directory(
             folder, scenario=self.name, backend=self.backend, seed=self.seed,

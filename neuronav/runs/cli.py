@@ -4,7 +4,9 @@ Exit status
     0: every trial ran (a trial whose ant does not reach home has ``success`` 0; it still ran).
     1: some trials failed (raised, diverged, or their worker died); their count and the first
     reason are printed on stderr, and the results of the others are written. Also 1 when the run
-    ran out of memory (one line on stderr).
+    ran out of memory (one line on stderr), and when ``--video``'s video failed: the trial goes on
+    unfilmed and keeps its results, what was filmed stays in ``trial0.partial.mp4`` and why is in
+    ``trial0.video-error.txt``, ``summary.json``'s ``video_error`` and one line on stderr.
     2: bad input, found before any trial runs and before anything is written: an unknown scenario,
     a backend that is empty, unknown, unsupported or not installed, a bad ``--set``/``--grid``/
     ``--config`` key or value, settings the scenario cannot run on that backend, more trials than
@@ -111,8 +113,9 @@ def main(argv: list[str] | None = None, figure_helper: bool = False) -> int:
     """Run the command line ``argv`` (default ``sys.argv[1:]``); return the exit status.
 
     0: every trial ran. 1: some trials failed (their count and the first reason on stderr; the
-    results are written). 2: bad input, one line on stderr, found before any trial runs (argparse's
-    own usage errors exit 2 through SystemExit). 130: interrupted (finished trials are kept; rerun
+    results are written), or ``--video``'s video failed (why on stderr; the results are written). 2: bad
+    input, one line on stderr, found before any trial runs (argparse's own usage errors exit 2 through
+    SystemExit). 130: interrupted (finished trials are kept; rerun
     the command to resume).
     """
     argv = sys.argv[1:] if argv is None else list(argv)
@@ -142,7 +145,12 @@ def _command(args, argv: list[str]) -> int:
             _print_summary(summary)
             if args.report:
                 _report([summary["out_dir"]])
-            return _failures(summary["failed_trials"], summary["trials"], summary.get("first_error", ""))
+            status = _failures(summary["failed_trials"], summary["trials"], summary.get("first_error", ""))
+            if summary.get("video_error"):  # the trial ran and kept its results; the video asked for is missing
+                sys.stderr.write(f"neuronav: the video failed (the trials' results are written): "
+                                 f"{_one_line(summary['video_error'])}\n")
+                return 1
+            return status
         if args.command == "compare":
             return _compare(args, argv)
         return _sweep(args, argv)

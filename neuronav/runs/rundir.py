@@ -213,6 +213,7 @@ def write_run_directory(
 # -- parts, settings and the lock (resumable runs) ------------------------------------------------------
 
 SETTINGS_FILE = "settings.json"
+VIDEO_NAME = "trial0.mp4"  # --video films the first trial into this file of the run folder
 PARTS_DIR = "parts"
 MARKER_FILE = ".neuronav-run"
 # A marker holds about 90 bytes of JSON; a larger file is not one, and is not read further.

@@ -81,6 +81,7 @@ from neuronav.runs.executors import (  # noqa: F401 - chunk planning is part of 
 from neuronav.runs.grid import GridPoint, grid_points, parse_grid, point_name  # noqa: F401 - re-exported
 from neuronav.runs.progress import Progress
 from neuronav.runs.rundir import (
+    VIDEO_NAME,
     DirectoryLock,
     check_out_dir,
     check_resumable,
@@ -226,7 +227,7 @@ class RunPlan:
     def _tasks(self, missing: dict[int, list[int]], workers: int) -> list[ChunkTask]:
         size = chunk_size_for(self.trials, len(self.points), workers or 1, _chunk_hint(self.scenario), self.chunk_size)
         by_name = _registered(self.scenario, self.name)  # workers then load it from the registry
-        video_path = str(self.out / "trial0.mp4") if self.video else None
+        video_path = str(self.out / VIDEO_NAME) if self.video else None
         return [
             ChunkTask(self.name if by_name else self.scenario, point.index, point.config, self.backend,
                       first, count, self.seed, video_path if first == 0 else None)

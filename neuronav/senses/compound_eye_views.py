@@ -84,9 +84,13 @@ class EyeViews:
         for each view of :meth:`views`, its uint8 image (n, n, 3) (G green, B UV) and sky mask (n, n)."""
         images = np.stack([image for image, _ in rendered]).reshape(-1, 3)
         sky = np.concatenate([mask.reshape(-1) for _, mask in rendered])
-        pixels = images[:, 1:3] * (1.0 / 255.0)
-        pixels[sky] = sky_green_uv
-        return self.matrix @ pixels
+        values = np.empty((self.matrix.shape[0], 2))
+        # Channel by channel: two sparse matrix-vector products cost half of one product with a (P, 2) array.
+        for channel in (0, 1):
+            pixels = images[:, 1 + channel] * (1.0 / 255.0)
+            np.copyto(pixels, sky_green_uv[channel], where=sky)
+            values[:, channel] = self.matrix @ pixels
+        return values
 
 
 @lru_cache(maxsize=16)

@@ -46,7 +46,7 @@ from neuronav.bodies.gaits import make_gait
 from neuronav.bodies.step_odometer import StepOdometer, UnicycleStrideOdometer
 from neuronav.config import field
 from neuronav.engine.loop import AgentLoop, Clocks, Hook, integer_ratio
-from neuronav.engine.video import join_videos
+from neuronav.engine.video import join_filmed_parts
 from neuronav.runs.scenario import Scenario, ScenarioResult
 from neuronav.runs.summary_statistics import Statistics
 from neuronav.scenarios import EVERY_BACKEND, settings
@@ -260,7 +260,7 @@ def odometer_trial(config: OdometerConfig, backend_name: str, seed: int, video_p
                                                        for leg in ("outbound", "homeward")]
     row, log = _trip(config, backend_name, seed, legs, nest_m, across_m, heading_jitter, believed, motor, parts)
     if video_path is not None:  # (a trip stopped or failed leaves its legs' parts under their temporary names)
-        join_videos(parts, video_path)
+        join_filmed_parts(parts, video_path)
     return row, log
 
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from neuronav.engine.video import FrameWriter, real_time_fps
+from neuronav.engine.video import FrameWriter, VideoFile, real_time_fps
 from neuronav.engine.video_draw import disc_mask, disc_offsets, put_text
 from neuronav.engine.video_overlay import bars, draw_insets
 from neuronav.engine.video_topview import TopViewCamera
@@ -36,8 +36,9 @@ ANT_DOT_PX, ANT_TICK_PX, MANY = 3, 8, 200
 RING_PX = 2.5  # the homes' rings' width (px; a thinner green ring loses its colour to the video's halved chroma)
 
 
-class SwarmFilm:
-    """Frames of one swarm into the MP4 ``path`` (written under a temporary name, given its own by :meth:`close`).
+class SwarmFilm(VideoFile):
+    """Frames of one swarm into the MP4 ``path`` (written under a temporary name, given its own by :meth:`close`;
+    a failed frame stops the video, not the swarm: :class:`~neuronav.engine.video.VideoFile`).
 
     Parameters
     ----------
@@ -55,27 +56,32 @@ class SwarmFilm:
 
     def __init__(self, path: Path, world: World, homes_m: np.ndarray, nest_radius_m: float, control_dt_s: float,
                  every: int) -> None:
-        self.path, self.every = Path(path), int(every)
+        super().__init__(path)
+        self.every, self._fps = int(every), real_time_fps(control_dt_s, int(every))
         self.homes_m = np.asarray(homes_m, float)
         self.nest_radius_m = float(nest_radius_m)
         self.camera = TopViewCamera(world)
         self.camera.framing.frame(self.homes_m)
-        self.frames = 0
         self._drawn = min(len(self.homes_m), MAX_PATHS)
         self._history: list[np.ndarray] = []  # the drawn ants' positions (n, 2) at each frame
         # (the view, the ground with the paths in it, which pixels are path (flat), the homes' rings (flat indices))
         self._kept: tuple | None = None
-        self._writer = FrameWriter(self._partial, real_time_fps(control_dt_s, self.every))
-
-    @property
-    def _partial(self) -> Path:
-        return self.path.with_suffix(".partial.mp4")
 
     def film(self, positions_m: np.ndarray, headings_rad: np.ndarray, home_at_s: np.ndarray, homing: bool,
              time_s: float, cpu4: np.ndarray | None = None) -> None:
         """One frame: the ants at ``positions_m`` (N, 2+) facing ``headings_rad`` (N,) (clockwise from +y),
         ``home_at_s`` (N,) finite for those home, ``homing`` whether the swarm has turned home, at ``time_s``;
-        ``cpu4`` (the first ant's CPU4 memory) as the inset."""
+        ``cpu4`` (the first ant's CPU4 memory) as the inset. A frame that fails stops the video, not the swarm."""
+        if self.error is not None:
+            return
+        try:
+            self._film(positions_m, headings_rad, home_at_s, homing, time_s, cpu4)
+        except Exception as error:  # noqa: BLE001 -- the swarm goes on unfilmed; why is written beside the video
+            self._give_up(error, time_s)
+
+    def _film(self, positions_m, headings_rad, home_at_s, homing, time_s, cpu4) -> None:
+        if self._writer is None:
+            self._writer = FrameWriter(self._partial, self._fps)
         positions = np.asarray(positions_m, float)[:, :2]
         headings = np.ravel(np.asarray(headings_rad, float))
         home = np.isfinite(np.asarray(home_at_s, float))
@@ -129,18 +135,6 @@ class SwarmFilm:
             walked[new] = True
             _blend_pixels(base, new)
         return self._kept[1], self._kept[3]
-
-    def close(self, finished: bool = True) -> None:
-        """Finish the file and give it its name (nothing is written when no frame was taken); a swarm that did not
-        finish (stopped or failed) leaves its video under the temporary ``*.partial.mp4``."""
-        if self._writer is None:
-            return
-        self._writer.close()
-        self._writer = None
-        if not self.frames:
-            self._partial.unlink(missing_ok=True)
-        elif finished:
-            self._partial.replace(self.path)
 
 
 def _step_points(view, before_m: np.ndarray, after_m: np.ndarray) -> np.ndarray:

@@ -237,6 +237,81 @@ def test_mujoco_compound_eye_faces_draw_only_what_they_face(monkeypatch):
                         lambda self, model, data, views: np.ones((len(views), self._cullable.size), bool))
     assert np.array_equal(culled, _reads("mujoco", world, yaws_rad))
 
+
+def test_pybullet_compound_eye_faces_draw_only_what_they_face_in_few_toggles(monkeypatch):
+    """Each face shows the coarse copies of the objects whose bounding sphere meets its frustum, the faces taken in
+    the order that toggles fewest objects: the same values as drawing every object in every face (the scene
+    turned too), with fewer toggles than in the faces' own order."""
+    from neuronav.backends.pybullet import camera
+    from neuronav.scenarios.worlds.scenes import forest
+
+    world = World(objects=forest(40, seed=0, inner_radius_m=2.0, outer_radius_m=30.0))
+    toggles, show = [], camera.ObjectCulling.show
+
+    def counted(self, shown):
+        toggles.append(int((shown == self._hidden).sum()))
+        show(self, shown)
+
+    def reads() -> np.ndarray:
+        engine, carried = _engine("pybullet", desert_ant(compound_eyes=True, ommatidia_scale=0.5))
+        out = []
+        with engine:
+            engine.load(world, [carried])
+            for yaw, scene_yaw in ((0.0, 0.0), (2.5, 0.0), (1.0, 0.7)):
+                engine.reset(seed=0, position_m=(0.0, 0.0), yaw_rad=yaw)
+                engine.set_scene_yaw(scene_yaw)
+                out.append(np.stack([engine.read(EYES)[eye][0] for eye in EYES]))
+        return np.array(out)
+
+    monkeypatch.setattr(camera.ObjectCulling, "show", counted)
+    culled, fewest = reads(), sum(toggles)
+    toggles.clear()
+    monkeypatch.setattr(camera, "fewest_changes_order", lambda shown, start: list(range(len(shown))))
+    assert np.array_equal(reads(), culled)
+    assert fewest < 0.8 * sum(toggles), (fewest, sum(toggles))
+    monkeypatch.setattr(camera.ObjectCulling, "visible_in",
+                        lambda self, views: np.ones((len(views), self.count), dtype=bool))
+    assert np.array_equal(reads(), culled)
+
+
+def test_pybullet_cameras_and_compound_eyes_draw_their_own_copies_of_the_objects():
+    """The compound eyes draw coarse copies (12 sides) of the objects, the cameras the fine ones: each read hides
+    the other set, so a camera image is the same before and after a compound-eye read."""
+    body = desert_ant(compound_eyes=True, ommatidia_scale=0.25)
+    engine, carried = _engine("pybullet", body)
+    with engine:
+        engine.load(SCENE, [carried])
+        engine.reset(seed=0, position_m=(0.0, 0.0), yaw_rad=2.0)
+        before = engine.render("eye_L")
+        engine.read(EYES)
+        assert engine._eye_culling.shown.any() and not engine._vision_culling.shown.any()
+        assert np.array_equal(engine.render("eye_L"), before)
+        assert not engine._eye_culling.shown.any() and engine._vision_culling.shown.any()
+
+
+@pytest.mark.parametrize("shape, size_m, triangles", [("sphere", (1.0,), 12 * 2 + 12 * 2 * 4),
+                                                      ("cylinder", (0.5, 2.0), 12 * 4), ("cone", (0.8, 1.0), 12 * 2)])
+def test_round_meshes_are_closed_outward_and_on_the_surface(shape, size_m, triangles):
+    from neuronav.backends.pybullet.scene import round_mesh
+
+    obj = WorldObject(shape, (0.0, 0.0, 0.0), size_m)
+    vertices, indices = round_mesh(obj, 12)
+    vertices, faces = np.array(vertices), np.array(indices).reshape(-1, 3)
+    assert len(faces) == triangles
+    corners = vertices[faces]
+    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    assert ((normals * corners.mean(axis=1)).sum(axis=1) > 0).all()  # every triangle faces outwards
+    # closed: every edge is shared by exactly two triangles, once in each direction
+    edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
+    assert len({tuple(e) for e in edges}) == len(edges)
+    assert {tuple(e) for e in edges} == {tuple(e[::-1]) for e in edges}
+    # the mesh's volume (divergence theorem) is the shape's, less what the 12-sided polygons cut off
+    volume = np.einsum("ij,ij->i", corners[:, 0], np.cross(corners[:, 1], corners[:, 2])).sum() / 6.0
+    radius, half = size_m[0], size_m[-1]
+    true = {"sphere": 4 / 3 * np.pi * radius ** 3, "cylinder": np.pi * radius ** 2 * 2 * half,
+            "cone": np.pi * radius ** 2 * 2 * half / 3}[shape]
+    assert 0.8 * true < volume < true
+
 if __name__ == "__main__":  # the numbers in the module doc
     values = _read_scene()
     for name in ("mujoco", "pybullet"):
