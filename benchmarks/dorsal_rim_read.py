@@ -17,8 +17,8 @@ responses (:meth:`~neuronav.senses.dorsal_rim.DorsalRim.responses`, one ray per 
   physics step between reads (not timed). Also the read's parts, each timed alone: pose (the
   ``head_quat`` read and its rotation matrix), rays (the ``head_pos`` read, the world directions and
   ``cast_rays``; none in the open scene), POL (the responses), and the engine's ray test of every ray
-  over its whole length from the head (``_cast_rays`` with start 0: what ``cast_rays``' culling saves
-  on PyBullet).
+  over its whole length from the head (``_cast_rays`` with start 0; PyBullet casts in a client of the
+  world's surfaces alone, where a ray does not start among the body's links).
 - Kinematic: ``--agents`` point agents in each scene, one batched read for all (their rays stacked in
   one ``cast_rays`` call), per agent.
 
@@ -61,6 +61,12 @@ from neuronav.senses.sky import Sky  # noqa: E402
 from neuronav.spec.world import PointAgents, World, WorldObject  # noqa: E402
 
 TARGET_MS = 0.2
+MISSED_BECAUSE = {
+    "mujoco": "mj_multiRay visits every geom, the ant's own included, for each ray: about 0.09 ms for 160 rays, "
+              "beside ~0.1 ms of the read around it",
+    "pybullet": "Bullet's rayTestBatch costs about 1 us a ray, its lists in and out included: 0.15-0.21 ms for 160 "
+                "rays, beside ~0.1 ms of the read around it",
+}
 ROOF = WorldObject("box", (0.0, 0.0, 3.0), (5.0, 5.0, 0.2))
 
 
@@ -165,8 +171,8 @@ def main(argv=None) -> None:
         print("\nper agent per read, ms; parts (CPU, each timed alone): pose = head_quat read and its rotation "
               "matrix, rays = head_pos read, world directions and cast_rays (cast only where the world has objects), "
               "POL = DorsalRim.responses; kept = the engine's ray test inside cast_rays, of the rays it keeps "
-              "(its culling: PyBullet), and how many; engine = the engine's ray test of all the rays from the head "
-              "over 50 m, uncut")
+              "(cut to the scene's height; culled by the objects' bounds where an engine asks: neither does), and "
+              "how many; engine = the engine's ray test of all the rays from the head over 50 m, uncut")
         print(f"{'backend':10s} {'scene':8s} {'read cpu':>9s} {'wall':>7s} {'pose':>6s} {'rays':>6s} {'POL':>6s} "
               f"{'kept':>6s} {'rays':>4s} {'engine':>7s} {'blocked':>8s}")
         for name in physics:
@@ -185,7 +191,7 @@ def main(argv=None) -> None:
                   f"{wall / agents:7.4f}")
         print(f"kinematic: {args.agents} agents read in one batched call (one cast_rays for all their rays)")
     for label, cpu in verdicts:
-        verdict = "met" if cpu <= TARGET_MS else "MISSED"
+        verdict = "met" if cpu <= TARGET_MS else f"MISSED ({MISSED_BECAUSE[label.split()[0]]})"
         print(f"target <= {TARGET_MS} ms per agent per read, {label}: {cpu:.3f} ms on CPU: {verdict}")
 
 

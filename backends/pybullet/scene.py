@@ -1,6 +1,6 @@
 """The world in PyBullet: ground (plane, heightfield, wall) and static objects, for physics and for vision.
 
-Two builds of one :class:`World`:
+Three builds of one :class:`World`:
 
 - :func:`build_ground` and :func:`build_object` in the physics client: collision shapes, with a look
   for the follow camera's videos (the floor in the World's appearance: plain out to
@@ -8,6 +8,7 @@ Two builds of one :class:`World`:
   over ``Ground.size_m`` of squares of ``checker_m`` aligned with the world axes, with the parity of
   every backend: ``ground_rgb`` where ``floor(x / checker_m) + floor(y / checker_m)`` is even, and beyond
   it, out to the same reach, a ring in the checker's mean colour: no floor edge under the horizon);
+- :func:`build_ray_world` in a client of collision shapes alone, that rays from the body are cast in;
 - :func:`build_vision_world` in a render-only client that holds no body: looks only, the ground
   reaching :data:`neuronav.senses.vision.GROUND_REACH_M` from the origin. Body cameras colour the ground
   themselves (:mod:`neuronav.backends.pybullet.camera`), so its look there does not matter. The compound
@@ -226,6 +227,40 @@ def checker_image(appearance, squares: int) -> np.ndarray:
     :func:`neuronav.senses.trail_floor.ground_rgb_at` at each square's centre."""
     centres = (np.arange(squares) + 0.5 - squares / 2.0) * appearance.checker_m
     return to_uint8(ground_rgb_at(appearance, centres[None, :], centres[::-1, None]))
+
+
+def build_ray_world(cid: int, world: World) -> list[int]:
+    """The world's surfaces alone in a client of their own, for casting rays from the body: the plane (or the
+    heightfield), the wall and the objects (in ``world.objects``' order, their bodies returned), with no body
+    among them; boxes and cones as static triangle meshes of the same surface (:func:`flat_sided_mesh`). Bullet's
+    ray test of a ray that starts among a body's links costs several times one that does not, even when the body
+    is masked out, and a ray meets a triangle mesh (a tree of its triangles' boxes) in about half the time of a
+    convex shape (which Bullet casts against by its general convex cast)."""
+    if _heightfield(cid, world) is None:
+        pb.createMultiBody(0.0, pb.createCollisionShape(pb.GEOM_PLANE, physicsClientId=cid), -1, [0.0, 0.0, 0.0],
+                           physicsClientId=cid)
+    _wall(cid, world, with_collision=True)
+    handles = []
+    for obj in world.objects:
+        if obj.shape in ("box", "cone"):  # the same surface as a triangle mesh
+            vertices, indices = flat_sided_mesh(obj)
+            shape = pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, indices=indices,
+                                            flags=pb.GEOM_FORCE_CONCAVE_TRIMESH, physicsClientId=cid)
+            handles.append(pb.createMultiBody(0.0, shape, -1, list(obj.position_m), physicsClientId=cid))
+        else:  # a sphere or cylinder stays exact
+            handles.append(build_object(cid, world, obj))
+    return handles
+
+
+def flat_sided_mesh(obj: WorldObject) -> tuple[list[list[float]], list[int]]:
+    """A box, or a cone as the physics client's hull of :data:`CONE_SIDES` sides, as a closed triangle mesh about
+    its centre (the same surface). Returns the vertices and the flat triangle indices."""
+    if obj.shape == "cone":
+        return round_mesh(obj, CONE_SIDES)
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    return (corners * np.asarray(obj.size_m, float)).tolist(), [k for face in faces for k in face]
 
 
 def build_eye_objects(cid: int, world: World) -> list[int]:

@@ -249,6 +249,50 @@ def test_physics_rays_hit_the_wall(name):
     backend.close()
 
 
+@pytest.mark.parametrize("name", PHYSICS)
+def test_physics_rays_meet_uneven_ground_at_its_height_and_a_turned_object(name):
+    """Rays cast down onto a heightfield meet it where the ground's surface is (between its samples the engines
+    interpolate planar triangles: within a few mm of ``height_at``), and an object turned with the scene."""
+    ground = Ground(kind="uneven", roughness_m=0.2, size_m=20.0, seed=3)
+    backend = physics(name, World(ground=ground, objects=(BOX,)))
+    xy = np.array([[3.0, -4.0], [-5.0, 2.5], [6.5, 6.0], [-2.0, -7.0]])
+    origins = np.column_stack([xy, np.full(len(xy), 5.0)])
+    distances = backend.cast_rays(origins, np.tile([0.0, 0.0, -1.0], (len(xy), 1)))
+    np.testing.assert_allclose(5.0 - distances, ground.height_at(xy[:, 0], xy[:, 1]), atol=0.02)
+    backend.set_scene_yaw(np.pi)  # the box now stands at (-2, 0, 1)
+    assert backend.cast_rays([[-2.0, 0.0, 5.0]], [[0.0, 0.0, -1.0]])[0] == pytest.approx(3.5, abs=1e-3)
+    backend.close()
+
+
+@pytest.mark.parametrize("scene_yaw_rad", [0.0, np.pi / 2])
+def test_pybullet_rays_meet_the_surfaces_the_physics_collides_with(scene_yaw_rad):
+    """PyBullet casts rays in a client of the world's surfaces alone (no body; boxes and cones as triangle meshes
+    of the same surface): rays meet a cone's 32-sided hull at a vertex, its apex, a box and a sphere where
+    geometry puts them and where the physics client's own ray test (the body masked out) meets them."""
+    require("pybullet")
+    from neuronav.backends.pybullet.engine import pb
+
+    cone = WorldObject("cone", (1.0, -2.0, 1.0), (0.6, 1.0))  # radius 0.3 at its centre's height
+    sphere = WorldObject("sphere", (-2.0, 1.0, 1.0), (0.7,))
+    backend = physics("pybullet", World(objects=(BOX, cone, sphere)))
+    backend.set_scene_yaw(scene_yaw_rad)
+    turn = np.array([[np.cos(scene_yaw_rad), -np.sin(scene_yaw_rad), 0.0],
+                     [np.sin(scene_yaw_rad), np.cos(scene_yaw_rad), 0.0], [0.0, 0.0, 1.0]])
+    # (origin, direction) in the objects' declared frame, the distance geometry gives
+    rays = [((3.0, -2.0, 1.0), (-1.0, 0.0, 0.0), 1.7),  # the cone's side at a vertex of its hull
+            ((1.0, -2.0, 2.5), (0.0, 0.0, -1.0), 0.5),  # down onto its apex
+            ((2.0, 0.3, 0.2), (0.0, 0.0, 1.0), 0.3),  # up into the box's bottom
+            ((-2.0, 3.0, 1.0), (0.0, -1.0, 0.0), 1.3)]  # the sphere's side
+    origins = np.array([r[0] for r in rays]) @ turn.T
+    directions = np.array([r[1] for r in rays]) @ turn.T
+    distances = backend.cast_rays(origins, directions, max_distance_m=5.0)
+    np.testing.assert_allclose(distances, [r[2] for r in rays], atol=1e-3)
+    found = pb.rayTestBatch(origins.tolist(), (origins + 5.0 * directions).tolist(), collisionFilterMask=~1,
+                            physicsClientId=backend.client_id)
+    np.testing.assert_allclose(distances, [5.0 * hit[2] for hit in found], atol=2e-3)
+    backend.close()
+
+
 def test_kinematic_rays_of_a_thousand_agents_are_one_call_and_each_agents_own():
     rng = np.random.default_rng(3)
     world = World(objects=(BOX, CYLINDER, OVERHEAD, WorldObject("sphere", (-2.0, -1.0, 1.0), (0.6,)),
