@@ -228,6 +228,9 @@ class RunPlan:
         size = chunk_size_for(self.trials, len(self.points), workers or 1, _chunk_hint(self.scenario), self.chunk_size)
         by_name = _registered(self.scenario, self.name)  # workers then load it from the registry
         video_path = str(self.out / VIDEO_NAME) if self.video else None
+        if video_path and 0 not in missing[self.points[0].index] and not Path(video_path).exists():
+            sys.stderr.write(f"neuronav: warning: trial 0 already ran in {self.out}, so --video (which films trial 0 "
+                             f"as it runs) makes no video; run into a new folder to film it\n")
         return [
             ChunkTask(self.name if by_name else self.scenario, point.index, point.config, self.backend,
                       first, count, self.seed, video_path if first == 0 else None)

@@ -135,3 +135,20 @@ def test_a_run_whose_video_fails_keeps_its_trials_and_exits_1(tmp_path, monkeypa
             return [{k: v for k, v in row.items() if not k.endswith(timing)} for row in csv.DictReader(handle)]
 
     assert rows(out) == rows(tmp_path / "plain")  # both trials ran, as without video
+
+
+def test_video_asked_of_a_finished_run_says_why_none_is_made(tmp_path, capsys):
+    settings = ["plume-tracking", "--backend", "kinematic", "--trials", "2", "--set", "timeout_s=0.64",
+                "--out", str(tmp_path / "run")]
+    assert main(["run", *settings]) == 0
+    capsys.readouterr()
+    assert main(["run", *settings, "--video"]) == 0  # nothing left to run: the results stand
+    said = capsys.readouterr().err.strip().splitlines()
+    assert len(said) == 1 and "trial 0 already ran" in said[0] and "new folder" in said[0], said
+    assert not (tmp_path / "run" / "trial0.mp4").exists()
+    # a filmed run resumed with --video again says nothing: its video is there
+    filmed = [*settings[:-1], str(tmp_path / "filmed"), "--video"]
+    assert main(["run", *filmed]) == 0 and (tmp_path / "filmed" / "trial0.mp4").exists()
+    capsys.readouterr()
+    assert main(["run", *filmed]) == 0
+    assert "warning" not in capsys.readouterr().err
