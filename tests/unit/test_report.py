@@ -333,3 +333,16 @@ def test_report_leaves_out_videos_still_being_written(tmp_path):
     for name in ("trial0.mp4", "trial0.outbound.partial.mp4", "trial0.partial.mp4"):
         (tmp_path / name).write_bytes(b"")
     assert [path.name for path in finished_videos(tmp_path)] == ["trial0.mp4"]
+
+
+def test_report_says_why_a_video_failed(tmp_path):
+    """A run whose video failed (``video_error`` in its summary) says why in the report's run table."""
+    from types import SimpleNamespace
+
+    from neuronav.runs.report.tables import run_facts
+
+    reason = "trial0.mp4 stopped at 0.14 s of the trial after 2 frames: OSError: disk full"
+    run = SimpleNamespace(summary={"scenario": "plume-tracking", "trials": 2, "video_error": reason}, settings={})
+    assert "video error" in run_facts(run) and "disk full" in run_facts(run)
+    run.summary.pop("video_error")
+    assert "video error" not in run_facts(run)

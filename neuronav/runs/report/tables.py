@@ -39,7 +39,8 @@ def key_values(mapping: Mapping, header: tuple[str, str] = ("setting", "value"))
 
 
 def run_facts(run: RunFolder) -> str:
-    """Scenario, backend, trials, seed, wall time, command and git revision of a run, compare or sweep."""
+    """Scenario, backend, trials, seed, wall time, command and git revision of a run, compare or sweep; the first
+    error and why the video failed, where they did."""
     s = run.summary
     facts = {"scenario": s.get("scenario") or run.settings.get("scenario"),
              "backend": s.get("backend") or ", ".join(map(str, s.get("backends", []))) or None,
@@ -47,7 +48,8 @@ def run_facts(run: RunFolder) -> str:
              "seed": s.get("seed"), "wall time (s)": s.get("wall_time_s"),
              "simulated time per trial (s)": s.get("simulated_time_s"),
              "command": " ".join(map(str, s["command"])) if isinstance(s.get("command"), list) else None,
-             "git revision": s.get("git_revision"), "first error": s.get("first_error") or None}
+             "git revision": s.get("git_revision"), "first error": s.get("first_error") or None,
+             "video error": s.get("video_error") or None}
     return key_values({k: v for k, v in facts.items() if v not in (None, "")}, ("run", ""))
 
 
