@@ -337,15 +337,7 @@ def build_object(cid: int, world: World, obj: WorldObject, with_collision: bool 
         look = pb.createVisualShape(pb.GEOM_CYLINDER, radius=radius, length=2 * half, rgbaColor=rgba,
                                     physicsClientId=cid)
     else:  # cone: a many-sided pyramid, base at -half, apex at +half
-        radius, half = obj.size_m
-        angles = np.linspace(0.0, 2 * np.pi, CONE_SIDES, endpoint=False)
-        ring = [[radius * math.cos(a), radius * math.sin(a), -half] for a in angles]
-        vertices = [*ring, [0.0, 0.0, half], [0.0, 0.0, -half]]
-        apex, centre = CONE_SIDES, CONE_SIDES + 1
-        indices = []
-        for k in range(CONE_SIDES):
-            nxt = (k + 1) % CONE_SIDES
-            indices += [k, nxt, apex, nxt, k, centre]
+        vertices, indices = round_mesh(obj, CONE_SIDES)
         shape = (pb.createCollisionShape(pb.GEOM_MESH, vertices=vertices, physicsClientId=cid)
                  if with_collision else -1)
         look = pb.createVisualShape(pb.GEOM_MESH, vertices=vertices, indices=indices, rgbaColor=rgba,

@@ -211,7 +211,6 @@ class VideoRecorder(Hook, VideoFile):
             self._writer.append(frame)
         self.frames += 1
 
-
     def __enter__(self) -> VideoRecorder:
         return self
 
@@ -223,6 +222,7 @@ def join_filmed_parts(parts: Sequence[Path], path: Path) -> None:
     """The filmed parts (each a :class:`VideoRecorder`'s ``path``) joined into ``path`` (:func:`join_videos`);
     when a part's video failed, or the joining does, ``path`` is not written and :func:`video_failure_path` of it
     says why (the parts stay as they were written): the trial keeps its results."""
+    video_failure_path(path).unlink(missing_ok=True)  # an earlier attempt's note is not this one's
     failed = [reason for reason in map(video_failure, parts) if reason]
     for part in parts:
         video_failure_path(part).unlink(missing_ok=True)

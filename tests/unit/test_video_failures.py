@@ -78,11 +78,11 @@ def test_parts_of_a_failed_leg_are_not_joined(tmp_path):
     assert not (tmp_path / "trial0.mp4").exists()
     assert "disk full" in video_failure(tmp_path / "trial0.mp4")
     assert all(part.exists() and not video_failure_path(part).exists() for part in parts)
-    # parts that were all filmed are joined, and the parts go
-    join_filmed_parts(parts, tmp_path / "joined.mp4")
-    with imageio.get_reader(tmp_path / "joined.mp4") as reader:
+    # parts that were all filmed (the trip filmed again) are joined, the earlier failure's note goes with the parts
+    join_filmed_parts(parts, tmp_path / "trial0.mp4")
+    with imageio.get_reader(tmp_path / "trial0.mp4") as reader:
         assert len([frame for frame in reader]) == 2
-    assert not any(part.exists() for part in parts)
+    assert not any(part.exists() for part in parts) and video_failure(tmp_path / "trial0.mp4") == ""
 
 
 def test_a_swarm_film_that_fails_stops_the_film_and_not_the_swarm(tmp_path, monkeypatch):
