@@ -104,6 +104,11 @@ def test_slider_moves_the_path_and_heatmap_cursors(page):
     box = rail.bounding_box()
     rail.click(position={"x": 0.8 * box["width"], "y": box["height"] / 2})
     page.wait_for_function("document.querySelector('.replay').layout.sliders[0].active > 0", timeout=5000)
+    # The slider's step is drawn by Plotly.animate, which resolves after the slider moved: wait (at most 5 s) for
+    # the ant's cursor to leave where it was (a timeout fails the test as the assertion below would).
+    page.wait_for_function("""(old) => { const t = document.querySelector('.replay').data.find(t => t.name === 'ant');
+        return Array.from(t.x).some((v, i) => v !== old.x[i]) || Array.from(t.y).some((v, i) => v !== old.y[i]); }""",
+                           arg=before["ant"], timeout=5000)
     after = page.evaluate(CURSORS)
     assert after["step"] > 0
     assert after["ant"]["x"] != before["ant"]["x"] or after["ant"]["y"] != before["ant"]["y"]
