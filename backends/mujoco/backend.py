@@ -260,7 +260,7 @@ class MujocoBackend(ArticulatedBackend):
         self._forces_current = False
 
     def _render_follow(self, view: FollowView) -> np.ndarray:
-        return self._render_follow_later(view).result()
+        return np.ascontiguousarray(self._render_follow_later(view).result())
 
     def _render_follow_later(self, view: FollowView) -> Future:
         self.model.vis.global_.fovy = view.fov_deg

@@ -15,6 +15,11 @@ defaults, with Mesa's software rasteriser (llvmpipe, one thread: see
   no mipmap lookups over the floor that fills most of the frame (1.5 ms a frame);
 - **no sky box where the view cannot see the sky** (:meth:`FollowRenderer.sees_sky`: the follow view looks
   25° down, its top edge 2.5° under the horizon, at a floor reaching 500 m): 1 ms a frame less;
+- **an offscreen buffer the size of the view** (the model's is as wide as its widest view, the ant's eyes' 864 ×
+  480 px): clearing the third more cost 0.6 ms a frame (3.9 against 3.3 ms with the odour trail's floor and the
+  ant), for the same picture;
+- **one copy of the pixels less**: a frame is read into a buffer of its own and handed over with its rows
+  reversed (a view); whoever draws on it copies it anyway, top row first;
 - **no shadow map** where no light casts a shadow (the world's sun does not; the headlight never
   does): MuJoCo's default map is 4096² px, made with every context;
 - **a kept GL context**: the next trial's follow view reuses this one's, as the eyes do (a new EGL context
@@ -24,8 +29,8 @@ defaults, with Mesa's software rasteriser (llvmpipe, one thread: see
   what the frame shows into a scene (``mjv_updateScene``, on the caller's thread) and returns at once; the GL
   thread rasterises it (``mjr_render``, ``mjr_readPixels``: MuJoCo's bindings release the GIL in them) while
   the caller steps on, on the second core. :meth:`FollowRenderer.render` waits for it: the same picture.
-  A filmed odour-trail trial's loop thread costs 1.3 x the trial without video, its process 3.0 x and its
-  wall time 2.0-2.3 x (``python benchmarks/video_cost.py``: ``loop s``, ``cpu s``, ``wall s``).
+  A filmed odour-trail trial's loop thread costs 1.3-1.4 x the trial without video, its process 2.8-3.0 x and
+  its wall time about 2 x (``python benchmarks/video_cost.py``: ``loop s``, ``cpu s``, ``wall s``).
 
 The GL rows run bottom-up; :meth:`FollowRenderer.render` returns the image top row first, as
 ``mujoco.Renderer`` does.
@@ -198,13 +203,14 @@ class FollowRenderer:
         self._next = 0
         self._perturb = mujoco.MjvPerturb()
         self._rect = mujoco.MjrRect(0, 0, self.width, self.height)
-        self._rgb = [np.empty((self.height, self.width, 3), dtype=np.uint8) for _ in range(FOLLOW_SCENES)]
 
     def _make_context(self, model: mujoco.MjModel) -> None:
         """On the GL thread: a context and the model's ``MjrContext`` in it (drawn to the offscreen buffer)."""
         self._gl = self._worker.acquire(*self.buffer_px)
-        quality = model.vis.quality
+        quality, buffer = model.vis.quality, model.vis.global_
         kept = (int(quality.offsamples), int(quality.shadowsize), int(quality.numslices), int(quality.numstacks))
+        kept_size = (int(buffer.offwidth), int(buffer.offheight))
+        buffer.offwidth, buffer.offheight = self.width, self.height
         quality.offsamples, quality.numslices, quality.numstacks = FOLLOW_SAMPLES, FOLLOW_SLICES, FOLLOW_STACKS
         if not np.any(model.light_castshadow):
             quality.shadowsize = NO_SHADOW_PX
@@ -216,6 +222,7 @@ class FollowRenderer:
             raise
         finally:
             quality.offsamples, quality.shadowsize, quality.numslices, quality.numstacks = kept
+            buffer.offwidth, buffer.offheight = kept_size
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._context)
         self._plain_textures_nearest(model)
 
@@ -262,13 +269,13 @@ class FollowRenderer:
     def render(self, model: mujoco.MjModel, data: mujoco.MjData, camera: mujoco.MjvCamera,
                option: mujoco.MjvOption) -> np.ndarray:
         """The view of ``camera`` (geoms as ``option`` shows them): a new uint8 (height, width, 3) image."""
-        return self.render_later(model, data, camera, option).result()
+        return np.ascontiguousarray(self.render_later(model, data, camera, option).result())
 
     def render_later(self, model: mujoco.MjModel, data: mujoco.MjData, camera: mujoco.MjvCamera,
                      option: mujoco.MjvOption) -> Future:
-        """:meth:`render` as a future: the scene is taken now (``data`` may change once this returns), the
-        picture drawn on the GL thread (:class:`GLThread`). At most :data:`FOLLOW_SCENES` are drawn at once:
-        past them this waits for the oldest."""
+        """:meth:`render` as a future (its image a view with the rows reversed, not C-contiguous): the scene is
+        taken now (``data`` may change once this returns), the picture drawn on the GL thread (:class:`GLThread`).
+        At most :data:`FOLLOW_SCENES` are drawn at once: past them this waits for the oldest."""
         if self._gl is None:
             raise ConfigError("mujoco follow view: rendered after close()")
         slot = self._next
@@ -282,11 +289,13 @@ class FollowRenderer:
         return future
 
     def _draw(self, slot: int) -> np.ndarray:
-        """On the GL thread: scene ``slot`` rasterised and read, top row first."""
+        """On the GL thread: scene ``slot`` rasterised and read, top row first: a view, rows reversed, of a new
+        buffer (whoever draws on the frame copies it anyway, in row order: a copy less per frame)."""
         self._gl.make_current()
         mujoco.mjr_render(self._rect, self._scenes[slot], self._context)
-        mujoco.mjr_readPixels(self._rgb[slot], None, self._rect, self._context)
-        return self._rgb[slot][::-1].copy()
+        rgb = np.empty((self.height, self.width, 3), dtype=np.uint8)
+        mujoco.mjr_readPixels(rgb, None, self._rect, self._context)
+        return rgb[::-1]
 
     def close(self) -> None:
         """Wait for the frames being drawn, free what the model put in the GL context and keep the context for the

@@ -269,7 +269,7 @@ class VideoOverlay:
         panels = [(getattr(inset, "label", ""), np.asarray(inset(loop), np.uint8)) for inset in self.content.insets]
 
         def draw(frame: np.ndarray) -> np.ndarray:
-            image = np.array(frame, dtype=np.uint8, copy=True)
+            image = np.array(frame, dtype=np.uint8, order="C", copy=True)
             if world is not None:
                 self._draw_world(image, camera, world)
             draw_insets(image, panels)
