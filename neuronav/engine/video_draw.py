@@ -77,9 +77,13 @@ def polyline_mask(shape: tuple[int, int], points_px, width_px: float) -> np.ndar
     a, b, length = a[good], b[good], length[good]
     if not len(a):
         return np.zeros(shape, bool)
+    # Samples every 0.7 px or closer along each segment, both ends included: np.linspace(0, 1, c + 1) of each
+    # segment's c steps, for all segments at once (a path of a few hundred points each frame).
     counts = np.maximum(1, np.ceil(length / 0.7).astype(int))
     segment = np.repeat(np.arange(len(a)), counts + 1)
-    fraction = np.concatenate([np.linspace(0.0, 1.0, c + 1) for c in counts])
+    first = np.cumsum(counts + 1) - (counts + 1)  # each segment's first sample
+    step = np.arange(segment.size) - first[segment]  # 0 .. c within its segment
+    fraction = np.where(step == counts[segment], 1.0, step * (1.0 / counts)[segment])
     samples = a[segment] + (b[segment] - a[segment]) * fraction[:, None]
     return disc_mask(shape, samples, max(width_px / 2.0 - 0.5, 0.0))
 

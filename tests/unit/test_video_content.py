@@ -159,6 +159,30 @@ def test_a_boxs_blend_is_the_blend_of_the_same_rectangle_as_a_mask():
     assert (expected[7:31, 12:50] < 90).all() and not (expected[:7] < 90).all()  # the box darkened, not the rest
 
 
+def test_a_polyline_is_each_segment_3_px_wide_from_end_to_end_and_no_more():
+    """Each segment sampled at most 0.7 px apart, both ends included (all segments at once), a 3 px disc at each
+    sample: an L along the pixel grid covers exactly the pixels within 1 px of it; a diagonal every pixel within
+    0.8 px of it and none farther than 2 px; a NaN point breaks the line."""
+    from neuronav.engine.video_draw import polyline_mask
+
+    points = np.array([[10.0, 20.0], [50.0, 20.0], [50.0, 35.0], [57.3, 41.9]])
+    mask = polyline_mask((60, 80), points, 3.0)
+    rows, columns = np.mgrid[0:60, 0:80]
+    a, b = points[2], points[3]
+    t = np.clip(((columns - a[0]) * (b[0] - a[0]) + (rows - a[1]) * (b[1] - a[1])) / np.sum((b - a) ** 2), 0, 1)
+    diagonal_px = np.hypot(columns - (a[0] + t * (b[0] - a[0])), rows - (a[1] + t * (b[1] - a[1])))
+    grid = np.zeros((60, 80), bool)
+    grid[19:22, 9:52] = True  # along row 20 from column 10 to 50, one pixel each side
+    grid[19:37, 49:52] = True  # down column 50 from row 20 to 35
+    assert (mask[grid]).all() and (mask[~grid] == (mask & (diagonal_px <= 2.0))[~grid]).all()
+    assert mask[diagonal_px <= 0.8].all()
+    assert mask[36:43, 50:59].sum() > 20  # the diagonal drawn, end to end
+    assert mask[42, 57] and not mask[45, 60]
+    broken = polyline_mask((60, 80), np.array([[10.0, 5.0], [30.0, 5.0], [np.nan, np.nan], [40.0, 5.0],
+                                               [45.0, 5.0]]), 3.0)
+    assert broken[5, 10:31].all() and not broken[5, 32:39].any() and broken[5, 40:46].all()  # a gap at the NaN
+
+
 # -- the swarm --------------------------------------------------------------------------------------------------
 def test_swarm_film_draws_each_ant_where_it_is_in_its_phase_colour_and_each_home(tmp_path):
     from neuronav.scenarios.swarm_homing import film as swarm_film
