@@ -30,6 +30,7 @@ from neuronav.config import apply_overrides, build_config, field, load_config_fi
 from neuronav.errors import ConfigError
 from neuronav.runs.cli import main
 from neuronav.runs.runner import run_trials
+from neuronav.scenarios.path_integration.embodied import CYCLE_S as GAIT_CYCLE_S
 from neuronav.scenarios.path_integration.scenario import PathIntegration, PathIntegrationConfig
 
 PROPERTY = settings(deadline=None, database=None, derandomize=bool(os.environ.get("CI")),
@@ -314,11 +315,20 @@ def test_random_config_files_are_valid_or_a_config_error(text):
             assert str(path) in str(error)
 
 
+PROTOCOLS = next(f for f in dataclasses.fields(PathIntegrationConfig) if f.name == "protocol").metadata["choices"]
+
+
 @st.composite
 def small_path_integration_configs(draw):
-    """Valid configs over each field's whole range (extremes included), with short runs."""
+    """Valid configs over each field's whole range (extremes included), with short runs: a few steps of the
+    stone2017 protocol, a few seconds of the i2bot protocol (its defaults walk 32 s out and up to 90 s home;
+    out and home together at least one gait cycle, the cross-field rule)."""
+    homing_s = draw(st.floats(0.01, 3.0))
+    outbound_s = draw(st.floats(max(0.01, GAIT_CYCLE_S + 1e-9 - homing_s), 3.0))
     values = {"outbound_steps": draw(st.integers(1, 25)), "inbound_steps": draw(st.integers(1, 25)),
-              "record_every": draw(st.integers(1, 60)), "record_trials": draw(st.integers(0, 3))}
+              "record_every": draw(st.integers(1, 60)), "record_trials": draw(st.integers(0, 3)),
+              "homing_timeout_s": homing_s, "outbound_s": outbound_s,
+              "protocol": draw(st.sampled_from(PROTOCOLS))}  # each protocol in about a third of the examples
     for f in dataclasses.fields(PathIntegrationConfig):
         if f.name in values or draw(st.integers(0, 2)):
             continue
