@@ -183,7 +183,7 @@ def test_the_follow_view_has_no_multisampling_and_the_next_backend_reuses_its_gl
 
 def test_the_follow_views_offscreen_buffer_is_the_views_size_whatever_the_models():
     """The model's offscreen buffer is sized for its widest view (the ant's eyes: 864 px); the follow view draws
-    into one of its own 640 x 480 px (clearing the rest cost 0.6 ms a frame), and shows the same picture."""
+    into one of its own 640 x 480 px (the wider one cost 0.6 ms a frame), and shows the same picture."""
     pytest.importorskip("mujoco")
     images = []
     for width_px in (None, 1000):
