@@ -127,10 +127,17 @@ def homing_direction(views: np.ndarray, heading_rad: np.ndarray,
         ``1 - min / median`` of the RIDF taken as the minimum over snapshots at each turn, in [0, 1].
     best_snapshot : ndarray, shape (N,)
         Index of the matching snapshot.
+
+    Raises
+    ------
+    ConfigError
+        No snapshot to match (N = 0 views give empty results), or a bad heading.
     """
     differences = ridf(views, snapshots)
-    n_views, _, width = differences.shape
-    flat = differences.reshape(n_views, -1).argmin(axis=1)
+    n_views, n_snapshots, width = differences.shape
+    if n_snapshots == 0:
+        raise ConfigError(f"homing_direction: needs at least one snapshot (K, R, W), got shape {differences.shape[1:]}")
+    flat = differences.reshape(n_views, n_snapshots * width).argmin(axis=1)
     best_snapshot, best_shift = np.divmod(flat, width)
     turn_rad = np.radians(COLUMN_DEG) * best_shift
     try:

@@ -207,6 +207,10 @@ def test_visual_homing_refuses_views_that_are_not_finite():
         skyline_view(np.zeros((1, 8, 8)), "abc")
     with pytest.raises(ConfigError, match="heading_rad"):
         homing_direction(views, np.array([NAN]), views)
+    with pytest.raises(ConfigError, match="at least one snapshot"):
+        homing_direction(views, np.zeros(len(views)), views[:0])
+    # No views (an empty batch): empty answers, not a reshape error (found by the input property test).
+    assert [part.shape for part in homing_direction(views[:0], (), views)] == [(0,), (0,), (0,)]
     with pytest.raises(ConfigError, match="finite"):
         ridf(np.full((1, 4, 8), 1e300), views)  # its squares would overflow
     assert np.isfinite(ridf(np.full((1, 4, 8), 1e50), views)).all()
