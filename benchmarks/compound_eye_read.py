@@ -10,7 +10,9 @@ from the origin). Median over ``--reads`` reads, the agents stepped between read
 Physics backends: one read is ``backend.read(["compound_eye_L", "compound_eye_R"])`` of the desert ant
 (``desert_ant(compound_eyes=True, ommatidia_scale=--scale)``) standing at rest in the same three scenes, turned
 0.1 rad between reads (not timed): each eye's cube faces rendered in the green-and-UV colouring (MuJoCo: one
-scene update per face, of the objects it can show, and one buffer read for both eyes; PyBullet: TinyRenderer
+scene update for the ground, the objects a face can show drawn in one GL call where they are several
+(:mod:`neuronav.backends.mujoco.object_batch`), one buffer read for both eyes; the forest once more with every
+geom drawn by MuJoCo, as before that, for comparison; PyBullet: TinyRenderer
 per face, of 12-sided copies of the objects it can show, a segmentation mask coloured per body, the flat floor
 from rays) and one sparse product per eye
 (:mod:`neuronav.senses.compound_eye_views`). Median over ``--physics-reads`` reads.
@@ -100,8 +102,9 @@ def measure_physics(engine: str, world: World, reads: int, scale: float) -> tupl
 
 
 PHYSICS_REASONS = {
-    "mujoco": "Mesa's llvmpipe draws each tree in every face that shows it, about 150 geom draws per read in the"
-              " 40-tree forest after each face's cull (bounding sphere and box), at the eyes' 12 x 6 tessellation",
+    "mujoco": "Mesa's llvmpipe draws each tree in every face that shows it (the eyes' batch of a face's objects in"
+              " one GL call, ~0.1 us a triangle at the eyes' 12 x 6 tessellation, after each face's cull by bounding"
+              " sphere and box), besides ten faces of ground and the read's numpy steps",
     "pybullet": "TinyRenderer draws each tree in every face that shows it (one getCameraImage call per face, 10 per"
                 " read; 12-sided copies of the objects, culled per face by bounding sphere; the flat floor from rays)",
 }
@@ -116,6 +119,17 @@ def physics_section(reads: int, scale: float) -> None:
             cpu_ms, wall_ms, per_eye = measure_physics(engine, world, reads, scale)
             results[engine, name] = cpu_ms
             print(f"{engine:9s} {name:8s} {per_eye:13d} {cpu_ms:12.2f} {wall_ms:13.2f}")
+    # Before the eyes drew the objects themselves (one GL call per face, where it shows several): MuJoCo drew
+    # every geom, one draw each. The same pixels (tests/cross_backend/test_compound_eye_agreement.py).
+    from neuronav.backends.mujoco.backend import _FlatRenderer
+
+    _FlatRenderer.batches_objects = False
+    try:
+        cpu_ms, wall_ms, per_eye = measure_physics("mujoco", scenes()["forest"], reads, scale)
+    finally:
+        _FlatRenderer.batches_objects = True
+    print(f"{'mujoco':9s} {'forest':8s} {per_eye:13d} {cpu_ms:12.2f} {wall_ms:13.2f}   every geom drawn by MuJoCo "
+          f"(the read with the eyes' own batch: {results['mujoco', 'forest'] / cpu_ms:.2f} x this)")
     for (engine, name), cpu_ms in results.items():
         target = TARGET_PHYSICS_MS[engine]
         verdict = "met" if cpu_ms <= target and scale >= 0.75 else "MISSED"

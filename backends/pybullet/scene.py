@@ -33,6 +33,7 @@ import zlib
 import numpy as np
 
 from neuronav.backends.pybullet.engine import pb
+from neuronav.engine.tessellation import box_mesh, cone_mesh, cylinder_mesh, sphere_mesh
 from neuronav.senses.trail_floor import TrailFloor, ground_rgb_at, png_bytes, trail_floor
 from neuronav.senses.vision import GROUND_REACH_M, to_uint8
 from neuronav.spec.world import World, WorldObject
@@ -257,10 +258,8 @@ def flat_sided_mesh(obj: WorldObject) -> tuple[list[list[float]], list[int]]:
     its centre (the same surface). Returns the vertices and the flat triangle indices."""
     if obj.shape == "cone":
         return round_mesh(obj, CONE_SIDES)
-    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)], float)
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
-             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
-    return (corners * np.asarray(obj.size_m, float)).tolist(), [k for face in faces for k in face]
+    vertices, triangles = box_mesh(obj.size_m)
+    return vertices.tolist(), triangles.ravel().tolist()
 
 
 def build_eye_objects(cid: int, world: World) -> list[int]:
@@ -274,38 +273,14 @@ def build_eye_objects(cid: int, world: World) -> list[int]:
 
 
 def round_mesh(obj: WorldObject, sides: int, stacks: int = EYE_STACKS) -> tuple[list[list[float]], list[int]]:
-    """A sphere, cylinder or cone as a closed triangle mesh about its centre: vertices on the true surface
-    (``sides`` around; a sphere's ``stacks`` from pole to pole, its poles single vertices), every triangle wound
+    """A sphere, cylinder or cone as a closed triangle mesh about its centre (:mod:`neuronav.engine.tessellation`):
+    vertices on the true surface (``sides`` around; a sphere's ``stacks`` from pole to pole), every triangle wound
     to face outwards. Returns the vertices and the flat triangle indices."""
-    angles = np.linspace(0.0, 2.0 * np.pi, sides, endpoint=False)
-    circle = np.column_stack([np.cos(angles), np.sin(angles)])
-
-    def ring(radius: float, z: float) -> np.ndarray:
-        return np.column_stack([radius * circle, np.full(sides, z)])
-
     if obj.shape == "sphere":
-        radius = float(obj.size_m[0])
-        polar = np.pi * np.arange(1, stacks) / stacks
-        rings = [ring(radius * math.sin(a), radius * math.cos(a)) for a in polar]
-        poles = [[0.0, 0.0, radius], [0.0, 0.0, -radius]]
-    else:  # cylinder (two rings) or cone (a ring and its apex), radius and half height
+        vertices, triangles = sphere_mesh(float(obj.size_m[0]), sides, stacks)
+    else:
         radius, half = map(float, obj.size_m)
-        rings = [ring(radius, half), ring(radius, -half)] if obj.shape == "cylinder" else [ring(radius, -half)]
-        poles = [[0.0, 0.0, half], [0.0, 0.0, -half]]
-    vertices = np.vstack([*rings, poles])
-    top, bottom = len(rings) * sides, len(rings) * sides + 1
-    triangles = []
-    for j in range(sides):
-        k = (j + 1) % sides
-        triangles += [(top, j, k), (bottom, (len(rings) - 1) * sides + k, (len(rings) - 1) * sides + j)]
-        for r in range(len(rings) - 1):
-            a, b = r * sides, (r + 1) * sides
-            triangles += [(a + j, b + j, b + k), (a + j, b + k, a + k)]
-    triangles = np.array(triangles)
-    corners = vertices[triangles]  # (T, 3, 3)
-    normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    inward = (normals * corners.mean(axis=1)).sum(axis=1) < 0.0  # the mesh is convex about its centre
-    triangles[inward] = triangles[inward][:, ::-1]
+        vertices, triangles = (cylinder_mesh if obj.shape == "cylinder" else cone_mesh)(radius, half, sides)
     return vertices.tolist(), triangles.ravel().tolist()
 
 

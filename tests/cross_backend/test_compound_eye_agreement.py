@@ -24,7 +24,9 @@ import pytest
 from neuronav import registry
 from neuronav.bodies.desert_ant import desert_ant
 from neuronav.bodies.desert_ant.body import point_agent_compound_eyes
-from neuronav.senses.compound_eye_views import EyeViews, face_px
+from neuronav.scenarios.worlds.scenes import forest
+from neuronav.senses.compound_eye_views import EyeViews, eye_views, face_px
+from neuronav.spec.body import quat_to_matrix
 from neuronav.spec.world import PointAgents, World, WorldObject
 
 BACKENDS = ("kinematic", "mujoco", "pybullet")
@@ -218,7 +220,6 @@ def test_mujoco_compound_eye_faces_draw_only_what_they_face(monkeypatch):
     """Each face draws the geoms whose bounding sphere and turned bounding box meet its frustum: under 30 % of
     the 40-tree forest's geoms per face, the same values as drawing every geom in every face."""
     from neuronav.backends.mujoco import backend as mujoco_backend
-    from neuronav.scenarios.worlds.scenes import forest
 
     world = World(objects=forest(40, seed=0, inner_radius_m=2.0, outer_radius_m=30.0))
     drawn = []
@@ -238,12 +239,69 @@ def test_mujoco_compound_eye_faces_draw_only_what_they_face(monkeypatch):
     assert np.array_equal(culled, _reads("mujoco", world, yaws_rad))
 
 
+@pytest.mark.parametrize("world, min_geoms", [(SCENE, 1), (World(objects=forest(40, seed=0, inner_radius_m=2.0,
+                                                                                 outer_radius_m=30.0)), None)],
+                         ids=["four shapes, every face batched", "forest"])
+def test_mujoco_compound_eyes_draw_the_objects_in_one_call_per_face_as_mujoco_draws_them(monkeypatch, world,
+                                                                                          min_geoms):
+    """The objects (cylinders, boxes, spheres, MuJoCo's cone meshes) drawn by the eyes' own batch, one GL call per
+    face that shows at least BATCH_MIN_GEOMS of them (here 1: every face, or the default), show the same pixels as
+    MuJoCo drawing each geom, the scene turned too; MuJoCo's scene updates hold what the batch does not draw."""
+    from neuronav.backends.mujoco import backend as mujoco_backend
+
+    def faces(batched: bool) -> tuple[list[np.ndarray], list[int]]:
+        if not batched:  # every object left to MuJoCo, as before the batch
+            monkeypatch.setattr(mujoco_backend._FlatRenderer, "batches_objects", False)
+        if min_geoms is not None:
+            monkeypatch.setattr(mujoco_backend, "BATCH_MIN_GEOMS", min_geoms)
+        update, scene_geoms = mujoco_backend._FlatRenderer._update_scene, []
+
+        def counted(self, model, data, culled):  # the geoms in each of MuJoCo's scene updates
+            update(self, model, data, culled)
+            scene_geoms.append(int(self._scene.ngeom))
+
+        monkeypatch.setattr(mujoco_backend._FlatRenderer, "_update_scene", counted)
+        engine, body = _engine("mujoco", desert_ant(compound_eyes=True, ommatidia_scale=0.5))
+        images = []
+        with engine:
+            engine.load(world, [body])
+            for k, yaw in enumerate(np.arange(0.0, 2.0 * np.pi, 0.7)):
+                engine.reset(seed=0, position_m=(0.0, 0.0), yaw_rad=yaw)
+                engine.set_scene_yaw(0.9 * (k // 5))  # the objects turned: the batch follows them
+                engine.read(EYES)  # the eyes' renderer and views
+                views = []
+                for eye in body.compound_eyes:
+                    pos, _, rotation = engine._segment_pose(eye.segment)
+                    views += eye_views(eye).views(pos + rotation @ np.asarray(eye.pos_m, float),
+                                                  rotation @ quat_to_matrix(eye.quat))
+                scene_geoms.clear()
+                for image, sky in engine._render_views(views, False, spectral=True):
+                    images += [image, sky]
+        monkeypatch.undo()
+        return images, scene_geoms
+
+    batch, batch_scene = faces(batched=True)
+    each, each_scene = faces(batched=False)
+    images = [(a.astype(int), b.astype(int)) for a, b in zip(batch[::2], each[::2])]
+    pixels = sum(a.shape[0] * a.shape[1] for a, _ in images)
+    # A colour at the middle of an 8-bit step (the box's UV 0.3: 76.5) may land on either side of it: MuJoCo's
+    # lighting leaves it a hair under or over from vertex to vertex. Anything more is a different surface.
+    apart = sum(int((np.abs(a - b) > 1).any(axis=-1).sum()) for a, b in images)
+    sky_apart = sum(int((a != b).sum()) for a, b in zip(batch[1::2], each[1::2]))
+    assert apart <= 1e-4 * pixels and sky_apart <= 1e-4 * pixels, (apart, sky_apart, pixels)  # 0 and 0 measured
+    assert sum(int((a != each[0][0, 0]).any()) for a in batch[::2]) > 0  # something but the sky was drawn
+    # MuJoCo's scene updates of the last read: of the ground alone where every face is batched (one update), else
+    # of what the faces left to MuJoCo show; without the batch, of all that each face shows.
+    assert sum(batch_scene) < sum(each_scene), (batch_scene, each_scene)
+    if min_geoms == 1:
+        assert len(batch_scene) == 1, batch_scene
+
+
 def test_pybullet_compound_eye_faces_draw_only_what_they_face_in_few_toggles(monkeypatch):
     """Each face shows the coarse copies of the objects whose bounding sphere meets its frustum, the faces taken in
     the order that toggles fewest objects: the same values as drawing every object in every face (the scene
     turned too), with fewer toggles than in the faces' own order."""
     from neuronav.backends.pybullet import camera
-    from neuronav.scenarios.worlds.scenes import forest
 
     world = World(objects=forest(40, seed=0, inner_radius_m=2.0, outer_radius_m=30.0))
     toggles, show = [], camera.ObjectCulling.show
