@@ -357,7 +357,8 @@ class PybulletBackend(ArticulatedBackend):
             floor = self._vision_ground[0]
             pb.changeVisualShape(floor, -1, rgbaColor=[0.0, 0.0, 0.0, 0.0], physicsClientId=cid)
             try:
-                return render_spectral(cid, views, self._vision_spectral, culling, (floor, self._vision_floor_z_m))
+                return render_spectral(cid, views, self._vision_spectral, culling, (floor, self._vision_floor_z_m),
+                                       only_objects=not sees_body and self.world.ground.kind != "wall")
             finally:
                 pb.changeVisualShape(floor, -1, rgbaColor=exact_rgba(self.world.appearance.ground_rgb),
                                      physicsClientId=cid)

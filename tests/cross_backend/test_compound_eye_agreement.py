@@ -207,13 +207,39 @@ def test_pybullet_draws_the_flat_floor_from_rays_as_tinyrenderer_draws_it(monkey
 
     from_rays = _reads("pybullet", UNDERGROUND)
 
-    def floor_drawn(cid, views, lut, culling=None, floor=None):
+    def floor_drawn(cid, views, lut, culling=None, floor=None, only_objects=False):  # objects and the floor drawn
         pb.changeVisualShape(floor[0], -1, rgbaColor=exact_rgba(UNDERGROUND.appearance.ground_rgb), physicsClientId=cid)
         return camera.render_spectral(cid, views, lut, culling)
 
     monkeypatch.setattr(pybullet_backend, "render_spectral", floor_drawn)
     drawn = _reads("pybullet", UNDERGROUND)
     assert np.abs(from_rays - drawn).max() <= 1e-9
+
+
+@pytest.mark.parametrize("world, calls", [(World(), (0, 0)), (SCENE, (1, 9)), (UNDERGROUND, (1, 9))],
+                         ids=["open", "four objects", "underground ball"])
+def test_pybullet_faces_that_show_no_object_are_sky_without_a_call(monkeypatch, world, calls):
+    """A compound-eye face that shows none of the objects (the floor drawn from rays, no wall) costs no
+    TinyRenderer call: the same values as drawing it; in the open world a read makes no call at all."""
+    from neuronav.backends.pybullet import backend as pybullet_backend
+    from neuronav.backends.pybullet import camera
+
+    made = []
+    get_image = camera.pb.getCameraImage
+
+    def counted(*args, **kwargs):
+        made.append(1)
+        return get_image(*args, **kwargs)
+
+    monkeypatch.setattr(camera.pb, "getCameraImage", counted)
+    skipped = _reads("pybullet", world, yaws_rad=(0.0,))
+    assert calls[0] <= len(made) <= calls[1], len(made)  # one read of ten faces (4 and 8 calls measured)
+    render = pybullet_backend.render_spectral
+    monkeypatch.setattr(pybullet_backend, "render_spectral",
+                        lambda *args, **kwargs: render(*args, **{**kwargs, "only_objects": False}))
+    made.clear()
+    assert np.array_equal(skipped, _reads("pybullet", world, yaws_rad=(0.0,)))
+    assert len(made) == 10
 
 
 def test_mujoco_compound_eye_faces_draw_only_what_they_face(monkeypatch):
