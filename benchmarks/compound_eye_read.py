@@ -11,8 +11,8 @@ Physics backends: one read is ``backend.read(["compound_eye_L", "compound_eye_R"
 (``desert_ant(compound_eyes=True, ommatidia_scale=--scale)``) standing at rest in the same three scenes, turned
 0.1 rad between reads (not timed): each eye's cube faces rendered in the green-and-UV colouring (MuJoCo: one
 scene update for the ground, the objects a face can show drawn in one GL call where they are several
-(:mod:`neuronav.backends.mujoco.object_batch`), one buffer read for both eyes; the forest once more with every
-geom drawn by MuJoCo, as before that, for comparison; PyBullet: TinyRenderer
+(:mod:`neuronav.backends.mujoco.object_batch`), one buffer read for both eyes; then the forest's read with and
+without that batch, in alternating rounds, for comparison; PyBullet: TinyRenderer
 per face, of 12-sided copies of the objects it can show, a segmentation mask coloured per body, the flat floor
 from rays) and one sparse product per eye
 (:mod:`neuronav.senses.compound_eye_views`). Median over ``--physics-reads`` reads.
@@ -110,6 +110,38 @@ PHYSICS_REASONS = {
 }
 
 
+def batch_comparison(world: World, reads: int, scale: float, rounds: int = 6) -> tuple[float, float, float]:
+    """MuJoCo's binocular read in ``world`` with the eyes' own batch of objects (one GL call per face that shows
+    several, :mod:`neuronav.backends.mujoco.object_batch`) and with every geom drawn by MuJoCo, as before it: two
+    backends read in alternating rounds of ``reads`` (the machine's speed drifts by tens of percent over a
+    minute). Returns the median CPU ms of each and the median of the rounds' ratios (batch / every geom)."""
+    from neuronav.backends.mujoco.backend import _FlatRenderer
+
+    backends, medians = {}, {True: [], False: []}
+    try:
+        for batched in (True, False):
+            _FlatRenderer.batches_objects = batched
+            backends[batched] = registry.load("backend", "mujoco")(timestep_s=0.002)
+            backends[batched].load(world, [desert_ant(compound_eyes=True, ommatidia_scale=scale)])
+            backends[batched].read(EYES)
+        for round_ in range(rounds):
+            for batched in ((True, False) if round_ % 2 == 0 else (False, True)):
+                _FlatRenderer.batches_objects = batched
+                cpu = []
+                for k in range(reads):
+                    backends[batched].reset(seed=0, yaw_rad=0.1 * k)
+                    start = time.process_time()
+                    backends[batched].read(EYES)
+                    cpu.append(time.process_time() - start)
+                medians[batched].append(1e3 * float(np.median(cpu)))
+    finally:
+        _FlatRenderer.batches_objects = True
+        for backend in backends.values():
+            backend.close()
+    ratios = np.array(medians[True]) / np.array(medians[False])
+    return float(np.median(medians[True])), float(np.median(medians[False])), float(np.median(ratios))
+
+
 def physics_section(reads: int, scale: float) -> None:
     print(f"\nphysics backends, the ant's two compound eyes at rest, turned between reads; median of {reads} reads")
     print(f"{'backend':9s} {'scene':8s} {'ommatidia/eye':>13s} {'cpu ms/read':>12s} {'wall ms/read':>13s}")
@@ -119,17 +151,9 @@ def physics_section(reads: int, scale: float) -> None:
             cpu_ms, wall_ms, per_eye = measure_physics(engine, world, reads, scale)
             results[engine, name] = cpu_ms
             print(f"{engine:9s} {name:8s} {per_eye:13d} {cpu_ms:12.2f} {wall_ms:13.2f}")
-    # Before the eyes drew the objects themselves (one GL call per face, where it shows several): MuJoCo drew
-    # every geom, one draw each. The same pixels (tests/cross_backend/test_compound_eye_agreement.py).
-    from neuronav.backends.mujoco.backend import _FlatRenderer
-
-    _FlatRenderer.batches_objects = False
-    try:
-        cpu_ms, wall_ms, per_eye = measure_physics("mujoco", scenes()["forest"], reads, scale)
-    finally:
-        _FlatRenderer.batches_objects = True
-    print(f"{'mujoco':9s} {'forest':8s} {per_eye:13d} {cpu_ms:12.2f} {wall_ms:13.2f}   every geom drawn by MuJoCo "
-          f"(the read with the eyes' own batch: {results['mujoco', 'forest'] / cpu_ms:.2f} x this)")
+    batch_ms, each_ms, ratio = batch_comparison(scenes()["forest"], reads, scale)
+    print(f"mujoco forest, the eyes' batch against every geom drawn by MuJoCo (as before it), alternating: "
+          f"{batch_ms:.2f} against {each_ms:.2f} cpu ms/read, paired ratio {ratio:.2f}")
     for (engine, name), cpu_ms in results.items():
         target = TARGET_PHYSICS_MS[engine]
         verdict = "met" if cpu_ms <= target and scale >= 0.75 else "MISSED"
