@@ -177,6 +177,17 @@ def test_band_outline_is_mitred_and_half_a_width_from_its_line():
     assert np.hypot(*(outline[4] - line[1])) == pytest.approx(0.1 * np.sqrt(2.0))
 
 
+def test_band_outline_caps_a_line_that_turns_back_on_itself():
+    """Out along x and straight back: the band keeps its width at the turn (a square cap half the width beyond
+    it), where the mitre of the two cancelling normals pinched it to the vertex."""
+    line = np.array([[0.0, 0.0], [1.0, 0.0], [0.2, 0.0]])
+    outline = replay.band_outline(line, 0.2)
+    turn = outline[[1, 4]]  # the turn's vertex on the left side and on the right
+    assert np.hypot(*(turn - line[1]).T) == pytest.approx([0.1, 0.1])
+    assert turn[:, 0] == pytest.approx([1.1, 0.9])  # ahead of the turn on one side, behind it on the other
+    assert np.isfinite(outline).all() and outline[:, 1].max() == pytest.approx(0.1)
+
+
 WORLD_RUNS = {  # scenario -> (tiny settings, the world's traces its replay must draw)
     "visual-compass": (["--set", "duration_s=1.3"], {"objects_m"}),
     "odour-trail": (["--set", "timeout_s=1.3"], {"trail_m", "trail_m band", "finish_line_m"}),

@@ -359,7 +359,7 @@ def band_outline(line_m: np.ndarray, width_m: float) -> np.ndarray:
     """The closed outline (2 V + 1, 2) of a band ``width_m`` wide along a polyline (V, 2): each side is the
     line moved half the width along its segments' normals, mitred at the vertices (so that every edge of the
     outline runs half the width from its segment; a mitre at a turn sharper than about 150° is cut at
-    :data:`MAX_MITRE` times the half width). Repeated vertices are dropped."""
+    :data:`MAX_MITRE` times the half width; a full reversal gets a square cap). Repeated vertices are dropped."""
     line = np.asarray(line_m, float)[:, :2]
     line = line[np.r_[True, np.hypot(*np.diff(line, axis=0).T) > 0]]
     if len(line) < 2:
@@ -368,9 +368,14 @@ def band_outline(line_m: np.ndarray, width_m: float) -> np.ndarray:
     segment /= np.hypot(segment[:, 0], segment[:, 1])[:, None]
     normal = np.column_stack([-segment[:, 1], segment[:, 0]])  # (V - 1, 2), to the left of each segment
     mitre = np.vstack([normal[:1], normal[:-1] + normal[1:], normal[-1:]])
-    mitre /= np.maximum(np.hypot(mitre[:, 0], mitre[:, 1]), 1e-12)[:, None]
+    length = np.hypot(mitre[:, 0], mitre[:, 1])
     along = np.vstack([normal[:1], normal])  # the normal of the segment each vertex ends (the first: starts)
-    scale = 1.0 / np.maximum((mitre * along).sum(axis=1), 1.0 / MAX_MITRE)
+    # Where the line turns back on itself the normals cancel: a square cap there, each side half the width
+    # on across the turn (ahead of it on the left, behind it on the right), not a band pinched to nothing.
+    back = length < 1e-9
+    mitre[back] = segment[np.flatnonzero(back) - 1]
+    mitre[~back] /= length[~back, None]
+    scale = np.where(back, 1.0, 1.0 / np.maximum((mitre * along).sum(axis=1), 1.0 / MAX_MITRE))
     offset = mitre * (scale * width_m / 2.0)[:, None]
     left, right = line + offset, line - offset
     return np.vstack([left, right[::-1], left[:1]])
