@@ -759,7 +759,9 @@ class _FlatRenderer:
         # The views where the eyes' own batch draws the objects (those showing at least BATCH_MIN_GEOMS of them:
         # one GL call's fixed cost is two or three of MuJoCo's geoms'); MuJoCo draws the rest of each view.
         batched, by_batch = np.zeros(len(self._cullable), dtype=bool), np.zeros(len(views), dtype=bool)
-        if spectral is not None and self.batches_objects and self._cullable.size >= BATCH_MIN_GEOMS:
+        # The batch draws after MuJoCo has drawn every view, in the projection it left: views of one field only.
+        if (spectral is not None and self.batches_objects and self._cullable.size >= BATCH_MIN_GEOMS
+                and len({tuple(view.fov_rad) for view in views}) == 1):
             batch, batched, batch_rgba = self._object_batch(model, spectral)
             by_batch = visible[:, batched].sum(axis=1) >= BATCH_MIN_GEOMS
             if by_batch.any():
@@ -779,8 +781,9 @@ class _FlatRenderer:
                 self._update_scene(model, data, culled)
                 for v in members:
                     self._draw(views[v], places[v], context)
-                    if by_batch[v]:  # the objects, over what MuJoCo drew
-                        batch.draw(views[v], batch.indices(visible[v, batched]))
+            if by_batch.any():  # the objects, over what MuJoCo drew, in the projection it left set
+                batch.draw([(views[v], places[v], batch.indices(visible[v, batched]))
+                            for v in np.flatnonzero(by_batch)])
         finally:
             if spectral is not None:
                 model.geom_rgba[ids], model.geom_matid[ids] = kept_rgba, kept_matid
