@@ -140,3 +140,10 @@ def test_binocular_read_compares_both_ways_in_both_worlds():
         for how in ("together", "one eye at a time"):
             assert re.search(rf"^{world}\s+{how}\s+{NUMBER}\s+{NUMBER}\s*$", out, re.MULTILINE), out
         assert re.search(rf"^{world}\s+together saves -?\d+% of the CPU time", out, re.MULTILINE), out
+
+
+def test_every_benchmark_is_in_the_benchmarks_readmes_table():
+    """benchmarks/README.md's table names every script here, with what it measures and its target."""
+    listed = set(re.findall(r"^\| `(\w+\.py)` \|", (BENCHMARKS / "README.md").read_text(), re.MULTILINE))
+    scripts = {path.name for path in BENCHMARKS.glob("*.py")}
+    assert scripts <= listed, sorted(scripts - listed)
