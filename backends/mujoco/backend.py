@@ -28,7 +28,8 @@ buffer is read once, colour and depth. Compound eyes' cube faces (all the eyes o
 green-and-UV colours, untextured, for the scene updates (one per face, with only the objects that face can
 show: a compound eye's faces look all around), and get their own back at once; where a face shows several
 objects, the eyes draw them themselves in one GL call over the ground MuJoCo drew
-(:mod:`neuronav.backends.mujoco.object_batch`: the same pixels, one call instead of one per geom).
+(:mod:`neuronav.backends.mujoco.object_batch`: MuJoCo's pixels but for rare edge ones, one call instead of one
+per geom).
 Flat shading: the scene's only light is an ambient headlight of 1 (no diffuse, specular, shadows,
 reflections, fog, haze or skybox), so each surface shows exactly its rgba; 2D textures are sampled
 nearest: the checker (one texel per square) and the odour trails' floor image
@@ -687,7 +688,7 @@ class _FlatRenderer:
     """Body-camera views, flat-shaded, in one GL context: one scene update and one read per camera frame."""
 
     # Compound-eye reads draw the world's objects themselves, one GL call per view (:class:`ObjectBatch`);
-    # False leaves every geom to MuJoCo (the same pixels, tests compare; 0.4-0.5 ms slower in the forest).
+    # False leaves every geom to MuJoCo (the same pixels but for rare edge ones, tests compare; slower in a forest).
     batches_objects = True
 
     def __init__(self, model: mujoco.MjModel) -> None:

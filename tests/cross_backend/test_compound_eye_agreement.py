@@ -272,7 +272,8 @@ def test_mujoco_compound_eyes_draw_the_objects_in_one_call_per_face_as_mujoco_dr
                                                                                           min_geoms):
     """The objects (cylinders, boxes, spheres, MuJoCo's cone meshes) drawn by the eyes' own batch, one GL call per
     face that shows at least BATCH_MIN_GEOMS of them (here 1: every face, or the default), show the same pixels as
-    MuJoCo drawing each geom, the scene turned too; MuJoCo's scene updates hold what the batch does not draw."""
+    MuJoCo drawing each geom (all of them here; a rare one centred on an edge may differ, see the batch's module),
+    the scene turned too; MuJoCo's scene updates hold what the batch does not draw."""
     from neuronav.backends.mujoco import backend as mujoco_backend
 
     def faces(batched: bool) -> tuple[list[np.ndarray], list[int]]:
